@@ -1,0 +1,33 @@
+# dropfit: ball drop tests to rebound heights, coefficient of restitution and ITF verdicts.
+#
+# Table of contents only; the rules live in workflow/rules/, one file per stage:
+#   synth    data/synthetic/{scenario}.csv + .truth.json   synthetic drop tests with ground truth
+#   measure  results/{sample}/trajectory.nc                 height log -> SI trajectory
+#   analyse  results/{sample}/{impacts,flights}.csv, analysis.json
+#   fit      results/{sample}/fit.json                      restitution fit + ITF verdict
+#   report   results/{sample}/report.{html,png}, results/batch/summary.{csv,html}
+#
+# Run:  snakemake --profile workflow/profiles/default
+
+
+from snakemake.utils import min_version
+
+min_version("8.0")
+
+
+configfile: "config/config.yaml"
+
+
+include: "workflow/rules/common.smk"
+include: "workflow/rules/synth.smk"
+include: "workflow/rules/measure.smk"
+include: "workflow/rules/analyse.smk"
+include: "workflow/rules/fit.smk"
+include: "workflow/rules/report.smk"
+
+
+rule all:
+    input:
+        all_reports,
+        "results/batch/summary.csv",
+        "results/batch/summary.html",

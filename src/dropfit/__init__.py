@@ -1,0 +1,29 @@
+"""dropfit: ball drop tests to trustworthy numbers.
+
+The public API: simulate and sample a drop test, read a height log, analyse the bounces, and
+estimate e with the theory checks and the ITF verdict.
+"""
+
+__version__ = "0.1.0"
+
+from .analysis import BounceAnalysis, analyse_bounces
+from .errors import InputError
+from .heightlog import read_height_log, trajectory_from_log
+from .restitution import constant_restitution, itf_rebound, itf_verdict, theory_checks
+from .synth import DropTruth, sample_height_log, simulate_drop, synthesize
+
+__all__ = [
+    "BounceAnalysis",
+    "DropTruth",
+    "InputError",
+    "analyse_bounces",
+    "constant_restitution",
+    "itf_rebound",
+    "itf_verdict",
+    "read_height_log",
+    "sample_height_log",
+    "simulate_drop",
+    "synthesize",
+    "theory_checks",
+    "trajectory_from_log",
+]

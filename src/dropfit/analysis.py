@@ -1,0 +1,525 @@
+"""From a height-against-time trajectory to flights and impacts, with standard errors.
+
+The trajectory is split into flights at the impacts; every flight is fitted with the closed-form
+vertical flight of :mod:`dropfit.physics` (known g, two parameters per flight: apex time and apex
+height), and a quadratic-drag parameter k shared by all flights is added only when the Bayesian
+information criterion says the data support it. The contact height (the centre height at which
+the ball touches the floor) is either given or found where the fitted flights before and after
+each impact meet. Every impact quantity is a function of the fitted parameters, so its standard
+error, and the covariance between impacts, follow by propagating the fit covariance through that
+function (delta method).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+from scipy import stats
+from scipy.optimize import brentq, least_squares
+
+from .errors import InputError
+from .physics import STANDARD_GRAVITY_M_S2, flight_height, flight_velocity, speed_below_apex, time_from_apex
+
+#: An impact needs both of its flights sampled at least this often to be analysed.
+MIN_SAMPLES_PER_FLIGHT = 5
+#: A dip must fall and rise by this many noise standard deviations to count as an impact.
+IMPACT_DEPTH_IN_NOISE = 5.0
+#: A flight whose residuals are this improbable under the noise hides an undetected impact.
+MISFIT_P_VALUE = 1e-4
+#: Noise floor in the height's own unit, so that noise-free data still segment.
+_NOISE_FLOOR_FRACTION = 1e-6
+#: Number of passes of "assign samples to flights, fit, locate the contacts".
+_REFINEMENT_PASSES = 3
+
+
+@dataclass
+class BounceAnalysis:
+    """Result of :func:`analyse_bounces`.
+
+    Attributes
+    ----------
+    flights : pandas.DataFrame
+        One row per flight (flight 0 is the drop), SI units in the column names.
+    impacts : pandas.DataFrame
+        One row per impact (impact n ends flight n−1 and starts flight n).
+    e_covariance : numpy.ndarray
+        Covariance of the per-impact e (dimensionless²), impacts in table order.
+    summary : dict
+        Contact height, drag model and its evidence, noise, release and rest times (SI units).
+    """
+
+    flights: pd.DataFrame
+    impacts: pd.DataFrame
+    e_covariance: np.ndarray
+    summary: dict = field(default_factory=dict)
+
+
+def estimate_noise(y):
+    """Robust standard deviation of the measurement noise of uniformly sampled heights.
+
+    The third difference of a parabola sampled at a constant interval is zero, so the third
+    differences of a free flight are pure noise with variance 20 σ²; the median absolute deviation
+    ignores the few that straddle an impact.
+
+    Parameters
+    ----------
+    y : numpy.ndarray
+        Heights (any length unit) without NaNs, in time order.
+
+    Returns
+    -------
+    float
+        σ in the unit of ``y``.
+    """
+    d3 = np.diff(y, 3)
+    if d3.size == 0:
+        return 0.0
+    mad = np.median(np.abs(d3 - np.median(d3)))
+    return 1.4826 * mad / np.sqrt(20.0)
+
+
+def find_release(y, noise):
+    """Index of the last sample before the ball starts to fall from the hand (0 if already falling)."""
+    start_level = np.median(y[: min(3, y.size)])
+    falling = np.flatnonzero(y < start_level - IMPACT_DEPTH_IN_NOISE * noise)
+    if falling.size == 0:
+        return None
+    return max(int(falling[0]) - 1, 0)
+
+
+def find_impacts(y, noise, start=0):
+    """Indices of the lowest sample of each bounce after ``start``.
+
+    A bounce is a sample that is the lowest of the five around it and lies at least
+    ``IMPACT_DEPTH_IN_NOISE`` noise standard deviations below the samples two, or three, steps
+    before and after it (three catches the slow, low bounces at the end of a sequence).
+    """
+    depth = IMPACT_DEPTH_IN_NOISE * noise
+    idx = np.arange(max(start, 3), y.size - 3)
+    window = np.stack([y[idx + shift] for shift in (-2, -1, 0, 1, 2)])
+    is_lowest = np.argmin(window, axis=0) == 2
+    rise = np.maximum(np.minimum(y[idx - 2], y[idx + 2]), np.minimum(y[idx - 3], y[idx + 3])) - y[idx]
+    return idx[is_lowest & (rise > depth)]
+
+
+def _last_flight_end(y, after, noise):
+    """Index one past the last sample of the flight that starts at the impact sample ``after``."""
+    level = y[after] + IMPACT_DEPTH_IN_NOISE * noise
+    below = np.flatnonzero(y[after + 1:] <= level)
+    # the first samples after the impact may still be below the level: skip them
+    above = np.flatnonzero(y[after + 1:] > level)
+    if above.size == 0:
+        return after + 1
+    later_below = below[below > above[0]]
+    return after + 1 + (int(later_below[0]) if later_below.size else y.size - after - 1)
+
+
+class _FlightModel:
+    """Joint least-squares model of all flights: θ = (y_apex_0, t_apex_0, …, [k])."""
+
+    def __init__(self, t, y, flight_of_sample, n_flights, with_drag, g):
+        self.t, self.y = t, y
+        self.flight = flight_of_sample
+        self.n_flights = n_flights
+        self.with_drag = with_drag
+        self.g = g
+
+    def unpack(self, theta):
+        y_apex = theta[0: 2 * self.n_flights: 2]
+        t_apex = theta[1: 2 * self.n_flights: 2]
+        k = float(theta[-1]) if self.with_drag else 0.0
+        return y_apex, t_apex, k
+
+    def residuals(self, theta):
+        y_apex, t_apex, k = self.unpack(theta)
+        model = flight_height(self.t, t_apex[self.flight], y_apex[self.flight], k, self.g)
+        return np.nan_to_num(model - self.y, nan=1e6, neginf=-1e6, posinf=1e6)
+
+    def jacobian(self, theta):
+        y_apex, t_apex, k = self.unpack(theta)
+        rows = np.arange(self.t.size)
+        jac = np.zeros((self.t.size, theta.size))
+        jac[rows, 2 * self.flight] = 1.0
+        jac[rows, 2 * self.flight + 1] = -flight_velocity(self.t, t_apex[self.flight], 0.0, k, self.g)
+        if self.with_drag:
+            step = 1e-7 + 1e-6 * k
+            plus = flight_height(self.t, t_apex[self.flight], y_apex[self.flight], k + step, self.g)
+            minus = flight_height(self.t, t_apex[self.flight], y_apex[self.flight], max(k - step, 0.0), self.g)
+            jac[:, -1] = (plus - minus) / (k + step - max(k - step, 0.0))
+        return np.nan_to_num(jac)
+
+    def lower_bounds(self, n_parameters):
+        """Lower bound of every parameter: none, but k ≥ 0."""
+        lower = np.full(n_parameters, -np.inf)
+        if self.with_drag:
+            lower[-1] = 0.0
+        return lower
+
+    def fit(self, theta0):
+        if self.with_drag:
+            result = least_squares(self.residuals, theta0, jac=self.jacobian, bounds=(self.lower_bounds(theta0.size), np.inf),
+                                   method="trf", x_scale="jac", xtol=1e-12, ftol=1e-12)
+        else:
+            result = least_squares(self.residuals, theta0, jac=self.jacobian, method="lm",
+                                   xtol=1e-12, ftol=1e-12)
+        return result
+
+
+def _parabola_start(t, y, g):
+    """Closed-form known-g parabola fit y + g t²/2 = a0 + a1 t; returns (y_apex, t_apex)."""
+    design = np.column_stack([np.ones_like(t), t])
+    (a0, a1), *_ = np.linalg.lstsq(design, y + 0.5 * g * t**2, rcond=None)
+    t_apex = a1 / g
+    return a0 + 0.5 * g * t_apex**2, t_apex
+
+
+def _numerical_jacobian(func, theta, lower):
+    """Central-difference Jacobian of the vector function ``func`` at ``theta``, one-sided where a
+    step down would cross the lower bound ``lower`` of a parameter."""
+    base = func(theta)
+    jac = np.empty((base.size, theta.size))
+    for j in range(theta.size):
+        step = 1e-6 * max(1.0, abs(theta[j]))
+        up, down = theta.copy(), theta.copy()
+        up[j] += step
+        down[j] = max(theta[j] - step, lower[j])
+        jac[:, j] = (func(up) - func(down)) / (up[j] - down[j])
+    return jac
+
+
+def _meeting_height(y_before, t_before, y_after, t_after, k, g):
+    """Height in m where the falling branch of one flight meets the rising branch of the next."""
+    def gap(height):
+        touchdown = t_before + time_from_apex(y_before - height, k, g)
+        liftoff = t_after - time_from_apex(y_after - height, k, g, rising=True)
+        return liftoff - touchdown
+
+    top = min(y_before, y_after)
+    if k == 0.0:
+        # both branches are parabolas with the same curvature: their meeting point is closed-form
+        meet_t = 0.5 * (t_after + t_before) - (y_after - y_before) / (g * (t_after - t_before))
+        return y_before - 0.5 * g * (meet_t - t_before) ** 2
+    bottom = top - 1.0
+    while gap(bottom) > 0:
+        bottom -= 2 * (top - bottom)
+    return brentq(gap, bottom, top, xtol=1e-13, rtol=1e-14)
+
+
+class _ImpactQuantities:
+    """Impact quantities as functions of θ, for values and for the delta-method covariance."""
+
+    def __init__(self, model, contact_height_m=None):
+        self.model = model
+        self.n_impacts = model.n_flights - 1
+        self.given_contact_height = contact_height_m
+        self.weights = np.ones(self.n_impacts)
+
+    def meeting_heights(self, theta):
+        y_apex, t_apex, k = self.model.unpack(theta)
+        return np.array([
+            _meeting_height(y_apex[i], t_apex[i], y_apex[i + 1], t_apex[i + 1], k, self.model.g)
+            for i in range(self.n_impacts)
+        ])
+
+    def contact_height(self, theta):
+        if self.given_contact_height is not None:
+            return float(self.given_contact_height)
+        return float(np.sum(self.weights * self.meeting_heights(theta)) / np.sum(self.weights))
+
+    def __call__(self, theta):
+        """Vector: contact height, then per impact (t_td, t_lo, v_in, v_out, e, e_h, ftr), apex heights."""
+        g = self.model.g
+        y_apex, t_apex, k = self.model.unpack(theta)
+        contact = self.contact_height(theta)
+        height_above = y_apex - contact
+        before, after = height_above[:-1], height_above[1:]
+        touchdown = t_apex[:-1] + time_from_apex(before, k, g)
+        liftoff = t_apex[1:] - time_from_apex(after, k, g, rising=True)
+        v_in = speed_below_apex(before, k, g)
+        v_out = speed_below_apex(after, k, g, rising=True)
+        # flight n lasts from lift-off at impact n to touchdown at impact n+1 (predicted for the last)
+        end_of_last = t_apex[-1] + time_from_apex(height_above[-1], k, g)
+        flight_time = np.append(touchdown[1:], end_of_last) - liftoff
+        time_ratio = np.concatenate([[np.nan], flight_time[1:] / flight_time[:-1]])
+        columns = [touchdown, liftoff, v_in, v_out, v_out / v_in, np.sqrt(after / before), time_ratio, flight_time]
+        return np.concatenate([[contact], np.concatenate(columns), height_above])
+
+
+_IMPACT_COLUMNS = ["t_touchdown_s", "t_liftoff_s", "v_in_m_s", "v_out_m_s", "e", "e_height", "flight_time_ratio",
+                   "flight_time_after_s"]
+
+
+def _assign_samples(t, flights_bounds):
+    """Flight index of every sample (−1 = not in any flight) for half-open time intervals."""
+    flight = np.full(t.size, -1)
+    for i, (start, end) in enumerate(flights_bounds):
+        flight[(t > start) & (t < end)] = i
+    return flight
+
+
+def _fit_flights(t, y, bounds, with_drag, g, theta0):
+    """Assign samples to the flights in ``bounds`` (list of (start, end) in s) and fit them jointly."""
+    flight = _assign_samples(t, bounds)
+    counts = np.bincount(flight[flight >= 0], minlength=len(bounds))
+    if np.any(counts < MIN_SAMPLES_PER_FLIGHT):
+        return None
+    used = flight >= 0
+    model = _FlightModel(t[used], y[used], flight[used], len(bounds), with_drag, g)
+    return model, model.fit(theta0), counts
+
+
+def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="auto", contact_height_m=None,
+                    source="trajectory"):
+    """Segment a drop-test trajectory into flights, fit them and measure every impact.
+
+    Parameters
+    ----------
+    time_s : array_like
+        Sample times in s, increasing.
+    height_m : array_like
+        Height of the ball's centre in m (up), NaN where the sensor dropped out. Its zero need not
+        be the floor: heights are reported above the contact height.
+    gravity_m_s2 : float
+        Local gravitational acceleration in m/s².
+    drag : {"auto", "off", "on"}
+        Quadratic air drag: chosen by BIC, never, or always.
+    contact_height_m : float, optional
+        Centre height in m at which the ball touches the floor (floor + radius), in the frame of
+        ``height_m``. If omitted it is estimated where the flights before and after each impact meet,
+        which assumes contact times short against the sample interval.
+    source : str
+        Name of the recording, used in error messages.
+
+    Returns
+    -------
+    BounceAnalysis
+    """
+    g = float(gravity_m_s2)
+    t_all = np.asarray(time_s, dtype=float)
+    y_all = np.asarray(height_m, dtype=float)
+    valid = np.isfinite(y_all)
+    t, y = t_all[valid], y_all[valid]
+    if y.size < 3 * MIN_SAMPLES_PER_FLIGHT:
+        raise InputError(f"{source}: only {y.size} valid samples, too few to find a bounce")
+    span = float(np.ptp(y))
+    noise = max(estimate_noise(y), _NOISE_FLOOR_FRACTION * span)
+    release = find_release(y, noise)
+    if release is None:
+        raise InputError(f"{source}: the ball never falls (height stays within noise of its start)")
+    minima = find_impacts(y, noise, start=release + 1)
+    if minima.size == 0:
+        raise InputError(f"{source}: no bounce found (no dip deeper than {IMPACT_DEPTH_IN_NOISE:g} noise "
+                         f"standard deviations after the release)")
+
+    # first pass: cut at the lowest samples, leaving them out
+    end_of_last = _last_flight_end(y, minima[-1], noise)
+    edges = np.concatenate([[release], minima, [end_of_last]])
+    sample_bounds = list(zip(edges[:-1], edges[1:]))
+    bounds = []
+    for start, stop in sample_bounds:
+        lo = t[start] - (1e-9 if start == release else -1e-9)  # the release sample is the first of flight 0
+        hi = t[stop] - 1e-9 if stop < t.size else t[-1] + 1.0
+        bounds.append((lo, hi))
+    # keep impacts while both neighbouring flights are sampled well enough
+    counts = [np.count_nonzero((t > lo) & (t < hi)) for lo, hi in bounds]
+    n_flights = next((i for i, c in enumerate(counts) if c < MIN_SAMPLES_PER_FLIGHT), len(bounds))
+    if n_flights < 2:
+        raise InputError(f"{source}: no bounce with at least {MIN_SAMPLES_PER_FLIGHT} samples in the flights "
+                         f"before and after it")
+    bounds = bounds[:n_flights]
+    starts = []
+    for lo, hi in bounds:
+        inside = (t > lo) & (t < hi)
+        starts.extend(_parabola_start(t[inside], y[inside], g))
+    theta_no_drag = np.asarray(starts)
+
+    with_drag = drag != "off"
+    theta0 = np.append(theta_no_drag, 1e-3) if with_drag else theta_no_drag
+    fit = _refine(t, y, bounds, with_drag, g, theta0, contact_height_m, noise)
+    if fit is None:
+        raise InputError(f"{source}: the flights could not be fitted (too few samples between bounces)")
+    bic = {with_drag: _bic(fit[1])}
+    if drag == "auto":
+        # compare the two models on the same samples: those the larger model kept
+        model, result, _, _, final_bounds = fit
+        rival = _fit_flights(t, y, final_bounds, False, g, result.x[:-1])
+        bic[False] = _bic(rival[1])
+        if bic[False] <= bic[True]:
+            fit = _refine(t, y, final_bounds, False, g, rival[1].x, contact_height_m, noise) or fit
+    return _report(fit, bic, t_all, y_all, noise, g, release_time=float(t[release]))
+
+
+def _refine(t, y, bounds, with_drag, g, theta0, contact_height_m, noise):
+    """Alternate fitting and re-assigning samples by the fitted touchdown and lift-off times."""
+    fitted = _fit_flights(t, y, bounds, with_drag, g, theta0)
+    if fitted is None:
+        return None
+    for _ in range(_REFINEMENT_PASSES):
+        model, result, counts = fitted
+        quantities = _ImpactQuantities(model, contact_height_m)
+        _set_weights(quantities, result)
+        values = _unpack_quantities(quantities(result.x), quantities.n_impacts)
+        y_apex, t_apex, k = model.unpack(result.x)
+        starts = np.concatenate([[t_apex[0] - 1e-9], values["t_liftoff_s"]])
+        last_end = t_apex[-1] + time_from_apex(y_apex[-1] - values["contact_height_m"], k, g)
+        ends = np.append(values["t_touchdown_s"], last_end)
+        new_bounds = list(zip(starts, ends))
+        refitted = _fit_flights(t, y, new_bounds, with_drag, g, result.x)
+        if refitted is None:
+            break
+        fitted, bounds = refitted, new_bounds
+    model, result, counts = fitted
+    misfit = _first_misfit_flight(model, result, noise)
+    if misfit is not None and misfit >= 2:
+        # an impact too shallow to be detected hides inside this flight: stop the sequence before it
+        theta = np.concatenate([result.x[: 2 * misfit], result.x[2 * model.n_flights:]])
+        return _refine(t, y, bounds[:misfit], with_drag, g, theta, contact_height_m, noise)
+    quantities = _ImpactQuantities(model, contact_height_m)
+    _set_weights(quantities, result)
+    return model, result, counts, quantities, bounds
+
+
+def _first_misfit_flight(model, result, noise):
+    """Index of the first flight whose residuals are too large for the noise (χ² test, p < 1e-4)."""
+    for i in range(model.n_flights):
+        residual = result.fun[model.flight == i]
+        chi2 = float(residual @ residual) / noise**2
+        if stats.chi2.sf(chi2, max(residual.size - 2, 1)) < MISFIT_P_VALUE:
+            return i
+    return None
+
+
+def _covariance(result):
+    """Parameter covariance σ² (JᵀJ)⁻¹ with σ² from the residuals."""
+    dof = max(result.fun.size - result.x.size, 1)
+    sigma2 = float(result.fun @ result.fun) / dof
+    return sigma2 * np.linalg.pinv(result.jac.T @ result.jac)
+
+
+def _set_weights(quantities, result):
+    """Weight each impact's meeting height by its inverse variance (weights then held fixed)."""
+    if quantities.given_contact_height is not None or quantities.n_impacts == 0:
+        return
+    jac = _numerical_jacobian(quantities.meeting_heights, result.x, quantities.model.lower_bounds(result.x.size))
+    variance = np.einsum("ij,jk,ik->i", jac, _covariance(result), jac)
+    quantities.weights = 1.0 / np.maximum(variance, 1e-30)
+
+
+def _bic(result):
+    """Bayesian information criterion of a least-squares fit with Gaussian noise."""
+    n = result.fun.size
+    rss = float(result.fun @ result.fun)
+    return n * np.log(max(rss, 1e-300) / n) + result.x.size * np.log(n)
+
+
+def _unpack_quantities(vector, n_impacts):
+    values = {"contact_height_m": vector[0]}
+    for j, name in enumerate(_IMPACT_COLUMNS):
+        values[name] = vector[1 + j * n_impacts: 1 + (j + 1) * n_impacts]
+    values["apex_height_m"] = vector[1 + len(_IMPACT_COLUMNS) * n_impacts:]
+    return values
+
+
+def _report(fit, bic, t_all, y_all, noise, g, release_time):
+    model, result, counts, quantities, bounds = fit
+    theta = result.x
+    cov_theta = _covariance(result)
+    vector = quantities(theta)
+    jac = _numerical_jacobian(quantities, theta, model.lower_bounds(theta.size))
+    cov = jac @ cov_theta @ jac.T
+    se = np.sqrt(np.clip(np.diag(cov), 0.0, None))
+    n = quantities.n_impacts
+    values = _unpack_quantities(vector, n)
+    errors = _unpack_quantities(se, n)
+    y_apex, t_apex, k = model.unpack(theta)
+    theta_se = np.sqrt(np.clip(np.diag(cov_theta), 0.0, None))
+
+    residual_rms = np.array([np.sqrt(np.mean(result.fun[model.flight == i] ** 2)) for i in range(model.n_flights)])
+    flights = pd.DataFrame({
+        "flight": np.arange(model.n_flights),
+        "t_start_s": [b[0] for b in bounds],
+        "t_end_s": [b[1] for b in bounds],
+        "t_apex_s": t_apex,
+        "t_apex_se_s": theta_se[1: 2 * model.n_flights: 2],
+        "y_apex_m": y_apex,
+        "y_apex_se_m": theta_se[0: 2 * model.n_flights: 2],
+        "apex_height_m": values["apex_height_m"],
+        "apex_height_se_m": errors["apex_height_m"],
+        "n_samples": counts,
+        "residual_rms_m": residual_rms,
+    })
+    e_index = 1 + _IMPACT_COLUMNS.index("e") * n
+    impacts = pd.DataFrame({"impact": np.arange(1, n + 1)})
+    for name in _IMPACT_COLUMNS:
+        impacts[name] = values[name]
+        impacts[_se_name(name)] = errors[name]
+    impacts["h_before_m"] = values["apex_height_m"][:-1]
+    impacts["h_before_se_m"] = errors["apex_height_m"][:-1]
+    impacts["h_after_m"] = values["apex_height_m"][1:]
+    impacts["h_after_se_m"] = errors["apex_height_m"][1:]
+    contact_ms = 1e3 * (values["t_liftoff_s"] - values["t_touchdown_s"])
+    td = 1 + _IMPACT_COLUMNS.index("t_touchdown_s") * n
+    lo = 1 + _IMPACT_COLUMNS.index("t_liftoff_s") * n
+    contact_jac = jac[lo: lo + n] - jac[td: td + n]
+    contact_se_ms = 1e3 * np.sqrt(np.clip(np.einsum("ij,jk,ik->i", contact_jac, cov_theta, contact_jac), 0, None))
+    impacts["t_contact_ms"] = contact_ms
+    impacts["t_contact_se_ms"] = contact_se_ms
+    sample_interval = float(np.median(np.diff(t_all)))
+    impacts["contact_resolvable"] = _contact_resolvable(contact_ms, contact_se_ms, sample_interval,
+                                                        quantities.given_contact_height is not None)
+    impacts["n_samples_before"] = counts[:-1]
+    impacts["n_samples_after"] = counts[1:]
+
+    contact = values["contact_height_m"]
+    summary = {
+        "contact_height_m": contact,
+        "contact_height_se_m": errors["contact_height_m"],
+        "contact_height_source": "given" if quantities.given_contact_height is not None else
+        "estimated where the flights before and after each impact meet",
+        "drag_model": "quadratic" if model.with_drag else "none",
+        "drag_k_per_m": k,
+        "drag_k_se_per_m": float(theta_se[-1]) if model.with_drag else 0.0,
+        "bic_no_drag": bic.get(False, np.nan),
+        "bic_quadratic_drag": bic.get(True, np.nan),
+        "noise_m": float(noise),
+        "residual_rms_m": float(np.sqrt(np.mean(result.fun**2))),
+        "sample_interval_s": sample_interval,
+        "release_time_s": release_time,
+        "drop_apex_time_s": float(t_apex[0]),
+        "drop_height_m": float(values["apex_height_m"][0]),
+        "drop_height_se_m": float(errors["apex_height_m"][0]),
+        "rest_time_s": _rest_time(t_all, y_all, contact, noise, after=float(values["t_liftoff_s"][-1])),
+        "gravity_m_s2": g,
+        "n_impacts": n,
+    }
+    return BounceAnalysis(flights=flights, impacts=impacts, e_covariance=cov[e_index: e_index + n, e_index: e_index + n],
+                          summary=summary)
+
+
+def _se_name(column):
+    """Standard-error column name that keeps the unit suffix last: v_in_m_s → v_in_se_m_s."""
+    for unit in ("_m_s", "_s", "_m"):
+        if column.endswith(unit) and not column.endswith("_ratio"):
+            return column[: -len(unit)] + "_se" + unit
+    return column + "_se"
+
+
+def _contact_resolvable(contact_ms, contact_se_ms, sample_interval_s, contact_height_given):
+    """A contact time means something only if the contact height is known independently of it,
+    the sampling resolves it, and it stands well clear of its own uncertainty."""
+    if not contact_height_given:
+        return np.zeros(contact_ms.size, dtype=bool)
+    return (contact_ms > 2e3 * sample_interval_s) & (contact_ms > 5 * contact_se_ms)
+
+
+def _rest_time(t, y, contact_height, noise, after):
+    """First time after ``after`` (s) from which the ball stays within 5 noise σ of the contact height,
+    or NaN if it is still bouncing when the log ends."""
+    finite = np.isfinite(y)
+    t, y = t[finite], y[finite]
+    away = np.flatnonzero((np.abs(y - contact_height) > IMPACT_DEPTH_IN_NOISE * noise) | (t <= after))
+    if away.size == 0 or away[-1] + 1 >= t.size:
+        return float("nan")
+    return float(t[away[-1] + 1])

@@ -1,0 +1,126 @@
+"""Command line: ``dropfit <stage> …``, one subcommand per workflow stage.
+
+A problem with the input prints one line, ``dropfit: error: <file>: <what is wrong>``, and exits
+with status 1; with ``--record-failure`` the stage instead writes failure records to its outputs
+and exits 0, so that a batch goes on and its summary lists the recording.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import traceback
+
+from . import stages
+from .errors import InputError
+from .files import write_failure
+from .physics import STANDARD_GRAVITY_M_S2
+from .restitution import ITF_DROP_HEIGHT_M, ITF_REBOUND_MAX_M, ITF_REBOUND_MIN_M
+
+
+def _parser():
+    parser = argparse.ArgumentParser(prog="dropfit", description="Ball drop tests to trustworthy numbers.")
+    sub = parser.add_subparsers(dest="command", required=True)
+
+    def stage(name, help_text):
+        command = sub.add_parser(name, help=help_text, description=help_text)
+        command.add_argument("--record-failure", action="store_true",
+                             help="on a bad recording write failure records to the outputs and exit 0")
+        return command
+
+    synth = sub.add_parser("synth", help="generate a synthetic height log and its ground truth")
+    synth.add_argument("--scenarios", required=True, help="scenarios YAML file")
+    synth.add_argument("--name", required=True, help="scenario name")
+    synth.add_argument("--log", required=True, help="output height log (CSV)")
+    synth.add_argument("--truth", required=True, help="output ground truth (JSON)")
+    synth.add_argument("--seed", type=int, help="override the scenario's seed")
+
+    measure = stage("measure", "height log (CSV) → trajectory (NetCDF, m)")
+    measure.add_argument("log", help="height log CSV")
+    measure.add_argument("--out", required=True, help="trajectory NetCDF to write")
+    measure.add_argument("--sample-id")
+    measure.add_argument("--ball-radius-m", type=float, help="ball radius in m")
+    measure.add_argument("--ball-mass-kg", type=float, help="ball mass in kg")
+    measure.add_argument("--ball-type", help="tennis, steel, rubber, table_tennis or other")
+    measure.add_argument("--scale-m-per-px", type=float,
+                         help="m per px for logs in px (negative if the axis points down); default: from gravity")
+    measure.add_argument("--gravity-m-s2", type=float, default=STANDARD_GRAVITY_M_S2, help="gravity in m/s²")
+
+    analyse = stage("analyse", "trajectory → impacts and flights tables (CSV) and analysis summary (JSON)")
+    analyse.add_argument("trajectory")
+    analyse.add_argument("--impacts", required=True)
+    analyse.add_argument("--flights", required=True)
+    analyse.add_argument("--summary", required=True)
+    analyse.add_argument("--drag", choices=["auto", "off", "on"], default="auto",
+                         help="quadratic air drag: chosen by BIC (auto), never or always")
+    analyse.add_argument("--gravity-m-s2", type=float, default=STANDARD_GRAVITY_M_S2, help="gravity in m/s²")
+
+    fit = stage("fit", "impacts → fit result (JSON): e, theory checks, ITF verdict")
+    fit.add_argument("--analysis", required=True)
+    fit.add_argument("--impacts", required=True)
+    fit.add_argument("--out", required=True)
+    fit.add_argument("--ball-type")
+    fit.add_argument("--itf-drop-height-m", type=float, default=ITF_DROP_HEIGHT_M)
+    fit.add_argument("--itf-rebound-min-m", type=float, default=ITF_REBOUND_MIN_M)
+    fit.add_argument("--itf-rebound-max-m", type=float, default=ITF_REBOUND_MAX_M)
+    fit.add_argument("--itf-drop-height-tolerance-m", type=float, default=0.02)
+
+    report = stage("report", "per-recording HTML report and PNG figure")
+    for name in ("trajectory", "flights", "impacts", "analysis", "fit", "html", "figure"):
+        report.add_argument(f"--{name}", required=True)
+
+    summary = sub.add_parser("summary", help="batch summary table (CSV, HTML) over fit results")
+    summary.add_argument("fits", nargs="+", help="fit.json files, one per recording")
+    summary.add_argument("--csv", required=True)
+    summary.add_argument("--html", required=True)
+    return parser
+
+
+def _run(args):
+    """Call the stage; return the output paths it writes (for failure records)."""
+    if args.command == "synth":
+        stages.synth(args.scenarios, args.name, args.log, args.truth, args.seed)
+    elif args.command == "measure":
+        stages.measure(args.log, args.out, args.sample_id, args.ball_radius_m, args.ball_mass_kg, args.ball_type,
+                       args.scale_m_per_px, args.gravity_m_s2)
+    elif args.command == "analyse":
+        stages.analyse(args.trajectory, args.impacts, args.flights, args.summary, args.drag, args.gravity_m_s2)
+    elif args.command == "fit":
+        stages.fit(args.analysis, args.impacts, args.out, args.ball_type, args.itf_drop_height_m,
+                   args.itf_rebound_min_m, args.itf_rebound_max_m, args.itf_drop_height_tolerance_m)
+    elif args.command == "report":
+        stages.report(args.trajectory, args.flights, args.impacts, args.analysis, args.fit, args.html, args.figure)
+    elif args.command == "summary":
+        stages.summary(args.fits, args.csv, args.html)
+
+
+_OUTPUTS = {"measure": ["out"], "analyse": ["impacts", "flights", "summary"], "fit": ["out"],
+            "report": ["html", "figure"]}
+
+
+def main(argv=None):
+    """Entry point of the ``dropfit`` console script and ``python -m dropfit``."""
+    args = _parser().parse_args(argv)
+    record = getattr(args, "record_failure", False)
+    try:
+        _run(args)
+    except InputError as error:
+        message = str(error)
+    except Exception as error:
+        if not record:
+            raise
+        # a bug, not the user's fault: keep the traceback in the log, but let the batch go on
+        traceback.print_exc()
+        message = f"internal error in dropfit {args.command} ({type(error).__name__}: {error}); please report it"
+    else:
+        return 0
+    print(f"dropfit: error: {message}", file=sys.stderr)
+    if not record:
+        return 1
+    for name in _OUTPUTS[args.command]:
+        write_failure(getattr(args, name), message)
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

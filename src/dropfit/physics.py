@@ -1,0 +1,157 @@
+"""Pure physics of a bouncing ball: vertical flight with optional quadratic drag, and restitution laws.
+
+All functions take and return SI units: time in s, height in m (up), speed in m/s, the drag
+parameter ``k`` in 1/m (acceleration from drag = k v², i.e. k = ρ C_d A / 2m), and ``g`` in m/s².
+A flight is described by its apex: time ``t_apex`` (s) and height ``y_apex`` (m). Without drag
+(k = 0) every formula reduces exactly to the parabola y = y_apex − g (t − t_apex)² / 2.
+
+With drag the closed forms follow from v̇ = −g − k v|v|, with the terminal speed v_t = √(g/k):
+rising, v = v_t tan(w s) and y = y_apex + ln(cos w s)/k with s = t_apex − t and w = √(g k);
+falling, v = −v_t tanh(w u) and y = y_apex − ln(cosh w u)/k with u = t − t_apex.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+STANDARD_GRAVITY_M_S2 = 9.80665
+AIR_DENSITY_KG_M3 = 1.2
+
+
+def drag_parameter(drag_coefficient, radius_m, mass_kg, air_density_kg_m3=AIR_DENSITY_KG_M3):
+    """Quadratic-drag parameter k = ρ C_d π R² / (2 m) in 1/m.
+
+    Parameters
+    ----------
+    drag_coefficient : float
+        C_d, dimensionless (about 0.5 for a smooth sphere, 0.55–0.6 for a tennis ball).
+    radius_m : float
+        Ball radius in m.
+    mass_kg : float
+        Ball mass in kg.
+    air_density_kg_m3 : float
+        Air density ρ in kg/m³.
+    """
+    return air_density_kg_m3 * drag_coefficient * np.pi * radius_m**2 / (2.0 * mass_kg)
+
+
+def flight_height(t, t_apex, y_apex, k=0.0, g=STANDARD_GRAVITY_M_S2):
+    """Height in m of a ball in vertical flight at times ``t`` (s).
+
+    Parameters
+    ----------
+    t : array_like
+        Times in s.
+    t_apex, y_apex : float
+        Time (s) and height (m) of the apex of the flight.
+    k : float
+        Quadratic-drag parameter in 1/m (0 = no drag).
+    g : float
+        Gravitational acceleration in m/s².
+
+    Returns
+    -------
+    numpy.ndarray
+        Height in m. On the rising side, times before the drag solution exists (the ball would have
+        had to move infinitely fast) give −inf.
+    """
+    dt = np.asarray(t, dtype=float) - t_apex
+    if k == 0.0:
+        return y_apex - 0.5 * g * dt**2
+    w = np.sqrt(g * k)
+    x = w * np.abs(dt)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        rising = np.log(np.cos(np.minimum(x, np.pi / 2))) / k
+    falling = -np.log(np.cosh(x)) / k
+    return y_apex + np.where(dt < 0, rising, falling)
+
+
+def flight_velocity(t, t_apex, y_apex, k=0.0, g=STANDARD_GRAVITY_M_S2):
+    """Vertical velocity in m/s (positive up) of a ball in flight at times ``t`` (s).
+
+    Parameters are those of :func:`flight_height`; ``y_apex`` is unused but kept so that both
+    functions take the same flight description.
+    """
+    dt = np.asarray(t, dtype=float) - t_apex
+    if k == 0.0:
+        return -g * dt
+    w = np.sqrt(g * k)
+    v_terminal = np.sqrt(g / k)
+    x = w * np.abs(dt)
+    return np.where(dt < 0, v_terminal * np.tan(np.minimum(x, np.pi / 2)), -v_terminal * np.tanh(x))
+
+
+def speed_below_apex(drop_m, k=0.0, g=STANDARD_GRAVITY_M_S2, rising=False):
+    """Speed in m/s of a ball ``drop_m`` (m) below the apex of its flight.
+
+    Falling: v² = (g/k)(1 − e^{−2kΔ}); rising: v² = (g/k)(e^{2kΔ} − 1); both 2gΔ without drag.
+    """
+    drop_m = np.asarray(drop_m, dtype=float)
+    if k == 0.0:
+        return np.sqrt(2.0 * g * drop_m)
+    if rising:
+        return np.sqrt(g * np.expm1(2.0 * k * drop_m) / k)
+    return np.sqrt(-g * np.expm1(-2.0 * k * drop_m) / k)
+
+
+def time_from_apex(drop_m, k=0.0, g=STANDARD_GRAVITY_M_S2, rising=False):
+    """Time in s between the apex and the moment the ball is ``drop_m`` (m) below it.
+
+    Falling: u = asinh(√(e^{2kΔ} − 1)) / √(gk); rising: s = atan(√(e^{2kΔ} − 1)) / √(gk);
+    both √(2Δ/g) without drag.
+    """
+    drop_m = np.asarray(drop_m, dtype=float)
+    if k == 0.0:
+        return np.sqrt(2.0 * drop_m / g)
+    root = np.sqrt(np.expm1(2.0 * k * drop_m))
+    w = np.sqrt(g * k)
+    return (np.arctan(root) if rising else np.arcsinh(root)) / w
+
+
+def apex_rise(speed_m_s, k=0.0, g=STANDARD_GRAVITY_M_S2):
+    """Height in m that a ball launched upwards at ``speed_m_s`` (m/s) rises: ln(1 + k v²/g)/(2k)."""
+    speed_m_s = np.asarray(speed_m_s, dtype=float)
+    if k == 0.0:
+        return speed_m_s**2 / (2.0 * g)
+    return np.log1p(k * speed_m_s**2 / g) / (2.0 * k)
+
+
+def restitution(speed_in_m_s, model):
+    """Coefficient of restitution for an impact at ``speed_in_m_s`` (m/s, magnitude).
+
+    Parameters
+    ----------
+    speed_in_m_s : float or array_like
+        Impact speed in m/s.
+    model : dict
+        ``{"kind": "constant", "e0": e}``;
+        ``{"kind": "linear", "e0": e0, "slope_s_m": a}`` for e = e0 − a v (a in s/m);
+        ``{"kind": "power", "coefficient": b, "exponent": p}`` for 1 − e = b v^p
+        (p = 1/5 for viscoelastic Hertz contact; b in (s/m)^p).
+
+    Returns
+    -------
+    float or numpy.ndarray
+        e, clipped to [0, 1].
+    """
+    v = np.asarray(speed_in_m_s, dtype=float)
+    kind = model["kind"]
+    if kind == "constant":
+        e = np.full_like(v, model["e0"])
+    elif kind == "linear":
+        e = model["e0"] - model["slope_s_m"] * v
+    elif kind == "power":
+        e = 1.0 - model["coefficient"] * v ** model["exponent"]
+    else:
+        raise ValueError(f"unknown restitution model kind {kind!r}")
+    return np.clip(e, 0.0, 1.0)
+
+
+def bounce_heights(e, first_height_m, n_bounces):
+    """Apex heights h_n = e^{2n} h₀ in m of bounces n = 1 … ``n_bounces`` for a constant e, no drag."""
+    return first_height_m * np.asarray(e, dtype=float) ** (2 * np.arange(1, n_bounces + 1))
+
+
+def total_bouncing_time(e, fall_time_s):
+    """Time in s from release until the bouncing stops: t∞ = t₀ (1 + e)/(1 − e), constant e, no drag."""
+    return fall_time_s * (1.0 + e) / (1.0 - e)

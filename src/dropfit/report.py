@@ -1,0 +1,477 @@
+"""Per-recording HTML report with its figure, and the batch summary table.
+
+The report figures are drawn here and only here (the failure-record PNG of :mod:`dropfit.files`
+aside). Every output is written whole or not at all (:func:`dropfit.files.atomic_output`).
+"""
+
+from __future__ import annotations
+
+import base64
+import io
+import math
+from html import escape
+
+import matplotlib
+
+matplotlib.use("Agg")  # reports are made in batch jobs without a display
+
+import matplotlib.pyplot as plt  # noqa: E402  (must follow matplotlib.use)
+import numpy as np  # noqa: E402
+import pandas as pd  # noqa: E402
+
+from .files import atomic_output  # noqa: E402
+from .physics import flight_height  # noqa: E402
+from .restitution import Z95  # noqa: E402
+
+MISSING = "—"
+
+BATCH_COLUMNS = ["sample_id", "status", "ball_type", "n_impacts", "e", "e_se", "e_ci95_low", "e_ci95_high",
+                 "drop_height_m", "itf_rebound_m", "itf_rebound_se_m", "itf_verdict", "drag_model", "error"]
+
+_BATCH_HEADERS = {
+    "sample_id": "sample id", "status": "status", "ball_type": "ball", "n_impacts": "impacts",
+    "e": "e (1)", "e_se": "se(e) (1)", "e_ci95_low": "e 95 % low (1)", "e_ci95_high": "e 95 % high (1)",
+    "drop_height_m": "drop height (m)", "itf_rebound_m": "ITF rebound (m)", "itf_rebound_se_m": "se(rebound) (m)",
+    "itf_verdict": "ITF verdict", "drag_model": "drag model", "error": "error",
+}
+
+_CSS = """
+body { font-family: system-ui, sans-serif; max-width: 70em; margin: 1em auto; padding: 0 1em; color: #222; }
+table { border-collapse: collapse; margin: 0.5em 0; }
+th, td { border: 1px solid #bbb; padding: 0.2em 0.6em; }
+td.num { text-align: right; font-variant-numeric: tabular-nums; }
+th { background: #eee; }
+dl { display: grid; grid-template-columns: max-content auto; gap: 0.2em 1em; }
+dt { font-weight: bold; }
+dd { margin: 0; }
+.verdict { display: inline-block; font-size: 1.6em; font-weight: bold; padding: 0.2em 0.8em; border-radius: 0.3em; }
+.verdict-pass { background: #c8f0c8; }
+.verdict-fail { background: #f6c6c6; }
+.verdict-indeterminate { background: #f6e6b0; }
+.verdict-not-applicable { background: #e4e4e4; }
+tr.failed td { background: #fbe0e0; }
+code { word-break: break-all; }
+img { max-width: 100%; }
+"""
+
+
+# --- formatting ---------------------------------------------------------------------------------
+
+def _missing(value):
+    """True for None or NaN (how absent values arrive from JSON, CSV and pandas)."""
+    return value is None or (pd.api.types.is_scalar(value) and bool(pd.isna(value)))
+
+
+def _text(value):
+    """Escaped text of a value, or the missing mark."""
+    return MISSING if _missing(value) or value == "" else escape(str(value))
+
+
+def _num(value, fmt):
+    """``value`` formatted with ``fmt`` (e.g. ``".3f"``), or the missing mark."""
+    return MISSING if _missing(value) else format(float(value), fmt)
+
+
+def _quantity(value, scale, fmt, unit):
+    """``value * scale`` formatted with ``fmt`` and followed by ``unit``, or the missing mark."""
+    return MISSING if _missing(value) else f"{format(scale * float(value), fmt)} {unit}"
+
+
+def _decimals(se):
+    """Decimals that show a standard error ``se`` to two significant figures."""
+    return max(0, 1 - math.floor(math.log10(se)))
+
+
+def format_pm(value, se):
+    """``value ± se`` with the standard error to two significant figures and the value to match.
+
+    Parameters
+    ----------
+    value, se : float or None
+        Estimate and its standard error, in the same unit (the caller adds the unit).
+
+    Returns
+    -------
+    str
+        E.g. ``"0.745073 ± 0.000068"``; the value alone (4 significant figures) when ``se`` is
+        missing or zero; the missing mark when ``value`` is missing.
+    """
+    if _missing(value):
+        return MISSING
+    if _missing(se) or se <= 0:
+        return f"{value:.4g}"
+    digits = _decimals(se)
+    return f"{value:.{digits}f} ± {se:.{digits}f}"
+
+
+def _format_interval(ci, se):
+    """A 95 % interval ``[low, high]`` with as many decimals as :func:`format_pm` gives."""
+    if ci is None or any(_missing(bound) for bound in ci):
+        return MISSING
+    digits = _decimals(se) if not _missing(se) and se > 0 else 4
+    return f"[{ci[0]:.{digits}f}, {ci[1]:.{digits}f}]"
+
+
+def _estimate(est, unit=""):
+    """An estimate dict (value, se, ci95) as ``value ± se unit (95 %: [low, high])``."""
+    if not est or _missing(est.get("value")):
+        return MISSING
+    suffix = f" {unit}" if unit else ""
+    return (f"{format_pm(est['value'], est.get('se'))}{suffix} "
+            f"(95 % interval {_format_interval(est.get('ci95'), est.get('se'))}{suffix})")
+
+
+def _table(headers, rows):
+    """HTML table; ``headers`` are plain text, cells already-escaped HTML (numbers right-aligned)."""
+    head = "".join(f"<th>{escape(header)}</th>" for header in headers)
+    body = "".join(
+        "<tr>" + "".join(f'<td class="num">{cell}</td>' if numeric else f"<td>{cell}</td>"
+                         for cell, numeric in row) + "</tr>\n"
+        for row in rows)
+    return f"<table>\n<tr>{head}</tr>\n{body}</table>"
+
+
+def _definitions(items):
+    """HTML definition list from (plain-text term, already-escaped HTML description) pairs."""
+    return "<dl>\n" + "".join(f"<dt>{escape(term)}</dt><dd>{description}</dd>\n"
+                              for term, description in items) + "</dl>"
+
+
+# --- figure -------------------------------------------------------------------------------------
+
+def _flight_curves(trajectory, flights, analysis):
+    """Fitted height of each flight on its fit window, and the fit residuals of the samples in it.
+
+    Returns
+    -------
+    curves : list of (numpy.ndarray, numpy.ndarray)
+        Time (s) and fitted height (m, sensor zero) of each flight on a fine grid.
+    residual_t, residual_m : numpy.ndarray
+        Times (s) and residuals (m, measured − fitted) of the samples used in the fits.
+    """
+    t = trajectory["time"].values
+    y = trajectory["y"].values
+    k, g = analysis["drag_k_per_m"], analysis["gravity_m_s2"]
+    curves, residual_t, residual_m = [], [], []
+    for row in flights.itertuples(index=False):
+        grid = np.linspace(row.t_start_s, row.t_end_s, 200)
+        curves.append((grid, flight_height(grid, row.t_apex_s, row.y_apex_m, k, g)))
+        inside = (t > row.t_start_s) & (t < row.t_end_s) & np.isfinite(y)
+        residual_t.append(t[inside])
+        residual_m.append(y[inside] - flight_height(t[inside], row.t_apex_s, row.y_apex_m, k, g))
+    return curves, np.concatenate(residual_t), np.concatenate(residual_m)
+
+
+def _figure_png(trajectory, flights, impacts, analysis, fit):
+    """The four-panel report figure as PNG bytes."""
+    t = trajectory["time"].values
+    contact = analysis["contact_height_m"]
+    height = trajectory["y"].values - contact
+    dropout = trajectory["quality"].values == 1
+    curves, residual_t, residual_m = _flight_curves(trajectory, flights, analysis)
+
+    fig = plt.figure(figsize=(11, 11), layout="constrained")
+    grid = fig.add_gridspec(3, 2, height_ratios=[2.2, 1, 2])
+    ax_traj = fig.add_subplot(grid[0, :])
+    ax_res = fig.add_subplot(grid[1, :], sharex=ax_traj)
+    ax_e = fig.add_subplot(grid[2, 0])
+    ax_h = fig.add_subplot(grid[2, 1])
+    fig.suptitle(f"dropfit: {fit.get('sample_id') or trajectory.attrs.get('sample_id', '')}", fontsize=14)
+
+    ax_traj.plot(t, height, ".", ms=2.5, color="0.35", label="measured")
+    for index, (grid_t, grid_y) in enumerate(curves):
+        ax_traj.plot(grid_t, grid_y - contact, "-", lw=1.2, color="tab:blue",
+                     label="fitted flights" if index == 0 else None)
+    if dropout.any():
+        # Dropouts have no height: mark them on the time axis where they happened.
+        ax_traj.plot(t[dropout], np.zeros(dropout.sum()), "|", ms=14, mew=1.5, color="tab:red",
+                     label=f"dropouts ({dropout.sum()})")
+    ax_traj.axhline(0.0, color="0.6", lw=0.8)
+    ax_traj.set_ylabel("height above contact height (m)")
+    ax_traj.set_title("(a) trajectory", loc="left")
+    ax_traj.legend(loc="upper right")
+    ax_traj.tick_params(labelbottom=False)
+
+    ax_res.plot(residual_t, 1e3 * residual_m, ".", ms=2.5, color="tab:blue")
+    ax_res.axhline(0.0, color="0.4", lw=0.8)
+    ax_res.set_xlabel("time (s)")
+    ax_res.set_ylabel("residual (mm)")
+    ax_res.set_title(f"(b) fit residuals (noise {1e3 * analysis['noise_m']:.2f} mm)", loc="left")
+
+    e_fit = fit["restitution"]["e"]
+    ax_e.errorbar(impacts["v_in_m_s"], impacts["e"], yerr=Z95 * impacts["e_se"], fmt="o", ms=4, capsize=3,
+                  color="tab:blue", label="per impact (±1.96 se)")
+    ax_e.axhline(e_fit["value"], color="tab:orange", lw=1.2, label=f"constant e = {format_pm(e_fit['value'], e_fit['se'])}")
+    ax_e.axhspan(*e_fit["ci95"], color="tab:orange", alpha=0.25, label="95 % interval")
+    ax_e.set_xlabel("impact speed $v_\\mathrm{in}$ (m/s)")
+    ax_e.set_ylabel("coefficient of restitution e (1)")
+    ax_e.set_title("(c) e per impact", loc="left")
+    ax_e.legend(loc="best", fontsize=8)
+
+    heights = pd.DataFrame(fit["theory"]["heights"])
+    h0 = fit["drop_height_m"]
+    bounce = np.concatenate([[0], heights["bounce"]])
+    ax_h.errorbar(bounce, np.concatenate([[h0["value"]], heights["measured_m"]]),
+                  yerr=Z95 * np.concatenate([[h0["se"]], heights["measured_se_m"]]), fmt="o", ms=4, capsize=3,
+                  color="tab:blue", label="measured apex $h_n$")
+    ax_h.plot(bounce, np.concatenate([[h0["value"]], heights["predicted_m"]]), "-", color="tab:orange",
+              label="$e^{2n} h_0$ (constant e, no drag)")
+    ax_h.set_yscale("log")
+    ax_h.set_xlabel("bounce number n")
+    ax_h.set_ylabel("apex height above contact $h_n$ (m)")
+    ax_h.set_title("(d) apex heights", loc="left")
+    ax_h.xaxis.get_major_locator().set_params(integer=True)
+    ax_h.legend(loc="best", fontsize=8)
+
+    buffer = io.BytesIO()
+    fig.savefig(buffer, format="png", dpi=110)
+    plt.close(fig)
+    return buffer.getvalue()
+
+
+# --- per-recording report -----------------------------------------------------------------------
+
+def _section_recording(fit):
+    ball = fit.get("ball") or {}
+    ball_text = (f"{_text(ball.get('type'))}, radius {_quantity(ball.get('radius_m'), 1e3, '.1f', 'mm')}, "
+                 f"mass {_quantity(ball.get('mass_kg'), 1e3, '.1f', 'g')}")
+    return _definitions([
+        ("Sample id", _text(fit.get("sample_id"))),
+        ("Source file", _text(fit.get("source"))),
+        ("SHA-256", f"<code>{_text(fit.get('source_sha256'))}</code>"),
+        ("Ball", ball_text),
+        ("Calibration", _text(fit.get("calibration"))),
+        ("dropfit version", _text(fit.get("dropfit_version"))),
+    ])
+
+
+def _section_result(fit):
+    restitution = fit["restitution"]
+    e = restitution["e"]
+    return _definitions([
+        ("Coefficient of restitution e", f"<strong>{escape(format_pm(e['value'], e['se']))}</strong>"),
+        ("95 % interval", escape(_format_interval(e.get("ci95"), e["se"]))),
+        ("Impacts", _text(restitution.get("n_impacts"))),
+        ("Model", f"{_text(restitution.get('model'))} e: {_text(restitution.get('why'))}"),
+        ("Goodness of fit", f"χ² = {_num(restitution.get('chi2'), '.2f')}, dof = {_text(restitution.get('dof'))}, "
+                            f"p = {_num(restitution.get('p_value'), '.3g')}"),
+    ])
+
+
+def _section_itf(fit):
+    itf = fit["itf"]
+    verdict = itf["verdict"]
+    badge = f'<p><span class="verdict verdict-{escape(verdict.replace(" ", "-"))}">{escape(verdict.upper())}</span></p>'
+    limits = itf.get("limits") or {}
+    limits_text = (f"rebound between {_num(limits.get('rebound_min_m'), '.2f')} m and "
+                   f"{_num(limits.get('rebound_max_m'), '.2f')} m from a {_num(limits.get('drop_height_m'), '.2f')} m "
+                   f"drop ({_text(limits.get('source'))})")
+    if verdict == "not applicable":
+        return badge + _definitions([("Why", _text(itf.get("why"))), ("Limits", limits_text)])
+    rebound = itf.get("rebound_m") or {}
+    return badge + _definitions([
+        ("Rebound", escape(_estimate(rebound, "m"))),
+        ("Method", _text(rebound.get("method"))),
+        ("Limits", limits_text),
+        ("Decision rule", _text(itf.get("why"))),
+    ])
+
+
+def _section_drag(fit):
+    drag = fit["drag"]
+    return _definitions([
+        ("Model", _text(drag.get("model"))),
+        ("k", escape(_estimate(drag.get("k_per_m"), "1/m"))),
+        ("BIC, no drag", _num(drag.get("bic_no_drag"), ".1f")),
+        ("BIC, quadratic drag", _num(drag.get("bic_quadratic_drag"), ".1f")),
+        ("Why", _text(drag.get("why"))),
+    ])
+
+
+def _section_theory(fit):
+    theory = fit["theory"]
+    rows = [[(_text(h["bounce"]), True),
+             (escape(format_pm(h["measured_m"], h["measured_se_m"])), True),
+             (escape(format_pm(h["predicted_m"], h["predicted_se_m"])), True),
+             (_num(None if _missing(h["measured_m"]) or _missing(h["predicted_m"])
+                   else h["measured_m"] / h["predicted_m"], ".3f"), True)]
+            for h in theory["heights"]]
+    heights = _table(["bounce n", "measured hₙ (m)", "predicted e²ⁿh₀ (m)", "measured / predicted (1)"], rows)
+    total = theory["total_bouncing_time"]
+    times = _definitions([
+        ("Total bouncing time, measured", f"{_num(total.get('measured_s'), '.3f')} s"),
+        ("Total bouncing time t∞, predicted", escape(_estimate(total.get("predicted"), "s"))),
+        ("Note", _text(total.get("note"))),
+    ])
+    return heights + "\n" + times
+
+
+def _section_contact(fit, impacts):
+    contact = fit["contact_time"]
+    if not contact["resolvable"]:
+        return f"<p>Not resolvable: {_text(contact.get('why'))}.</p>"
+    resolved = impacts[impacts["contact_resolvable"].astype(bool)]
+    rows = [[(_text(row.impact), True), (escape(format_pm(row.t_contact_ms, row.t_contact_se_ms)), True)]
+            for row in resolved.itertuples(index=False)]
+    return f"<p>{_text(contact.get('why'))}.</p>\n" + _table(["impact", "contact time (ms)"], rows)
+
+
+def _section_impacts(impacts):
+    rows = [[(_text(row.impact), True),
+             (_num(row.v_in_m_s, ".3f"), True),
+             (_num(row.v_out_m_s, ".3f"), True),
+             (escape(format_pm(row.e, row.e_se)), True),
+             (_num(row.e_height, ".4f"), True),
+             (_num(row.flight_time_ratio, ".4f"), True),
+             (escape(format_pm(row.h_after_m, row.h_after_se_m)), True)]
+            for row in impacts.itertuples(index=False)]
+    return _table(["impact", "v_in (m/s)", "v_out (m/s)", "e ± se (1)", "e from heights (1)",
+                   "flight-time ratio (1)", "h_after ± se (m)"], rows)
+
+
+def recording_report_html(trajectory, flights, impacts, fit, png):
+    """The self-contained per-recording HTML report.
+
+    Parameters
+    ----------
+    trajectory : xarray.Dataset
+        The measured trajectory (only its attributes are used here).
+    flights, impacts : pandas.DataFrame
+        Flights and impacts tables of the analysis.
+    fit : dict
+        Fit result.
+    png : bytes
+        The report figure, embedded as base64.
+
+    Returns
+    -------
+    str
+        The HTML page.
+    """
+    sample_id = fit.get("sample_id") or trajectory.attrs.get("sample_id") or ""
+    image = base64.b64encode(png).decode("ascii")
+    sections = [
+        ("Recording", _section_recording(fit)),
+        ("Result", _section_result(fit)),
+        ("ITF verdict", _section_itf(fit)),
+        ("Drag", _section_drag(fit)),
+        ("Theory checks", _section_theory(fit)),
+        ("Contact time", _section_contact(fit, impacts)),
+        ("Impacts table", _section_impacts(impacts)),
+        ("Figure", f'<img alt="dropfit figure for {escape(str(sample_id))}" src="data:image/png;base64,{image}">'),
+    ]
+    body = "\n".join(f"<h2>{escape(title)}</h2>\n{content}" for title, content in sections)
+    return (f"<!doctype html>\n<html lang='en'>\n<head>\n<meta charset='utf-8'>\n"
+            f"<title>dropfit report: {escape(str(sample_id))}</title>\n<style>{_CSS}</style>\n</head>\n<body>\n"
+            f"<h1>dropfit report: {escape(str(sample_id))}</h1>\n"
+            f"<p>Heights are of the ball centre above the contact height "
+            f"({escape(_estimate(fit.get('contact_height_m'), 'm'))} above the sensor zero); "
+            f"{len(flights)} flights fitted.</p>\n{body}\n</body>\n</html>\n")
+
+
+def write_recording_report(trajectory, flights, impacts, analysis, fit, html_path, figure_path):
+    """Write the report figure (PNG) and the self-contained HTML report of one recording.
+
+    Parameters
+    ----------
+    trajectory : xarray.Dataset
+        Dimension ``time`` (s); ``y`` (m, ball centre above the sensor zero, NaN at dropouts) and
+        ``quality`` (0 ok, 1 dropout).
+    flights, impacts : pandas.DataFrame
+        Flights and impacts tables written by the analyse stage.
+    analysis : dict
+        Analysis summary (contact height in m, drag ``k`` in 1/m, gravity in m/s², noise in m).
+    fit : dict
+        Fit result (e, theory checks, ITF verdict, provenance).
+    html_path, figure_path : str or pathlib.Path
+        Where to write the HTML report and the PNG figure.
+    """
+    png = _figure_png(trajectory, flights, impacts, analysis, fit)
+    with atomic_output(figure_path) as tmp:
+        tmp.write_bytes(png)
+    with atomic_output(html_path) as tmp:
+        tmp.write_text(recording_report_html(trajectory, flights, impacts, fit, png), encoding="utf-8")
+
+
+# --- batch summary ------------------------------------------------------------------------------
+
+def _batch_row(fit):
+    """One summary row from a fit result or a failure record."""
+    if fit.get("status") == "failed":
+        return {"sample_id": fit.get("sample_id"), "status": "failed", "error": fit.get("error")}
+    e = fit["restitution"]["e"]
+    rebound = fit["itf"].get("rebound_m") or {}
+    ci = e.get("ci95") or [None, None]
+    return {
+        "sample_id": fit.get("sample_id"), "status": fit.get("status", "ok"),
+        "ball_type": (fit.get("ball") or {}).get("type"), "n_impacts": fit["restitution"].get("n_impacts"),
+        "e": e.get("value"), "e_se": e.get("se"), "e_ci95_low": ci[0], "e_ci95_high": ci[1],
+        "drop_height_m": (fit.get("drop_height_m") or {}).get("value"),
+        "itf_rebound_m": rebound.get("value"), "itf_rebound_se_m": rebound.get("se"),
+        "itf_verdict": fit["itf"].get("verdict"), "drag_model": fit["drag"].get("model"),
+    }
+
+
+def batch_rows(fits):
+    """Summary table of a batch: one row per recording, failed ones with their message.
+
+    Parameters
+    ----------
+    fits : list of dict
+        Fit results (``fit.json``), or failure records ``{"status": "failed", "error": ...,
+        "sample_id": ...}``.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns :data:`BATCH_COLUMNS`: e and its se and 95 % interval (1), drop height and ITF
+        rebound with its se (m); NaN where not applicable (e.g. every number of a failed recording).
+    """
+    table = pd.DataFrame([_batch_row(fit) for fit in fits], columns=BATCH_COLUMNS)
+    numeric = ["e", "e_se", "e_ci95_low", "e_ci95_high", "drop_height_m", "itf_rebound_m", "itf_rebound_se_m"]
+    table[numeric] = table[numeric].astype(float)
+    table["n_impacts"] = table["n_impacts"].astype("Int64")
+    return table
+
+
+# Each number is shown to the precision of the standard error in the named column (se to 2 figures).
+_BATCH_PRECISION_FROM = {"e": "e_se", "e_se": "e_se", "e_ci95_low": "e_se", "e_ci95_high": "e_se",
+                         "drop_height_m": None, "itf_rebound_m": "itf_rebound_se_m",
+                         "itf_rebound_se_m": "itf_rebound_se_m"}
+
+
+def batch_report_html(table):
+    """HTML page of a batch summary table (from :func:`batch_rows`), failed recordings highlighted.
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        The batch summary table.
+
+    Returns
+    -------
+    str
+        The HTML page.
+    """
+    failed = table["status"] == "failed"
+    head = "".join(f"<th>{escape(_BATCH_HEADERS[column])}</th>" for column in BATCH_COLUMNS)
+    body = []
+    for is_failed, (_, row) in zip(failed, table[BATCH_COLUMNS].iterrows()):
+        cells = []
+        for column, value in row.items():
+            if column in _BATCH_PRECISION_FROM:
+                se = row[_BATCH_PRECISION_FROM[column]] if _BATCH_PRECISION_FROM[column] else None
+                digits = 4 if _missing(se) or se <= 0 else _decimals(se)
+                cells.append(f'<td class="num">{_num(value, f".{digits}f")}</td>')
+            elif column == "n_impacts":
+                cells.append(f'<td class="num">{_text(value)}</td>')
+            else:
+                cells.append(f"<td>{_text(value)}</td>")
+        row_class = ' class="failed"' if is_failed else ""
+        body.append(f"<tr{row_class}>{''.join(cells)}</tr>")
+    rows = "\n".join(body)
+    return (f"<!doctype html>\n<html lang='en'>\n<head>\n<meta charset='utf-8'>\n"
+            f"<title>dropfit batch summary</title>\n<style>{_CSS}</style>\n</head>\n<body>\n"
+            f"<h1>dropfit batch summary</h1>\n"
+            f"<p>{len(table)} recordings: {int((~failed).sum())} analysed, {int(failed.sum())} failed.</p>\n"
+            f"<table>\n<tr>{head}</tr>\n{rows}\n</table>\n</body>\n</html>\n")

@@ -1,0 +1,173 @@
+"""The workflow's stages: each reads files, calls the pure functions and writes its outputs whole.
+
+Every stage function takes paths and options and raises :class:`dropfit.errors.InputError` for a
+problem with the recording; :func:`dropfit.cli.main` turns that into one line (or into failure
+records, with ``--record-failure``).
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+from . import __version__
+from .analysis import analyse_bounces
+from .errors import InputError
+from .files import atomic_output, read_json, read_table, sha256_of, write_json, write_text
+from .heightlog import read_trajectory, trajectory_from_log
+from .physics import STANDARD_GRAVITY_M_S2
+from .restitution import (ITF_DROP_HEIGHT_M, ITF_REBOUND_MAX_M, ITF_REBOUND_MIN_M, constant_restitution,
+                          estimate, itf_rebound, itf_verdict, theory_checks)
+from .synth import synthesize
+
+
+def synth(scenarios_path, name, log_path, truth_path, seed=None):
+    """Generate the height log and ground truth of scenario ``name`` from a scenarios YAML file."""
+    try:
+        scenarios = yaml.safe_load(Path(scenarios_path).read_text(encoding="utf-8"))["scenarios"]
+        scenario = scenarios[name]
+    except (OSError, KeyError, TypeError, yaml.YAMLError) as error:
+        raise InputError(f"{scenarios_path}: no scenario {name!r} ({type(error).__name__}: {error})") from None
+    log, truth = synthesize(scenario, scenario.get("seed", 0) if seed is None else seed)
+    truth["scenario_name"] = name
+    unit = log.columns[1]
+    header = (f"# dropfit height log (synthetic scenario {name}, seed {truth['seed']})\n"
+              f"# {unit}: height of the ball centre above the sensor zero; empty = dropout\n")
+    with atomic_output(log_path) as tmp:
+        tmp.write_text(header + log.to_csv(index=False, float_format="%.6f", na_rep=""), encoding="utf-8")
+    write_json(truth_path, truth)
+
+
+def measure(log_path, out_path, sample_id=None, ball_radius_m=None, ball_mass_kg=None, ball_type=None,
+            scale_m_per_px=None, gravity_m_s2=STANDARD_GRAVITY_M_S2):
+    """Height log → trajectory NetCDF (heights in m, up; dropouts flagged)."""
+    trajectory = trajectory_from_log(
+        log_path, scale_m_per_px=scale_m_per_px, gravity_m_s2=gravity_m_s2,
+        attrs={"sample_id": sample_id, "ball_radius_m": ball_radius_m, "ball_mass_kg": ball_mass_kg,
+               "ball_type": ball_type, "source_sha256": sha256_of(log_path), "dropfit_version": __version__},
+    )
+    with atomic_output(out_path) as tmp:
+        trajectory.to_netcdf(tmp)
+
+
+def analyse(trajectory_path, impacts_path, flights_path, summary_path, drag="auto",
+            gravity_m_s2=STANDARD_GRAVITY_M_S2):
+    """Trajectory → impacts table, flights table and analysis summary (with the e covariance)."""
+    trajectory = read_trajectory(trajectory_path)
+    result = analyse_bounces(trajectory["time"].values, trajectory["y"].values, gravity_m_s2=gravity_m_s2,
+                             drag=drag, source=trajectory.attrs.get("source", str(trajectory_path)))
+    summary = dict(result.summary)
+    summary["e_covariance"] = result.e_covariance.tolist()
+    summary["trajectory_attrs"] = {key: _plain(value) for key, value in trajectory.attrs.items()}
+    with atomic_output(impacts_path) as tmp:
+        result.impacts.to_csv(tmp, index=False, float_format="%.9g")
+    with atomic_output(flights_path) as tmp:
+        result.flights.to_csv(tmp, index=False, float_format="%.9g")
+    write_json(summary_path, {key: _plain(value) for key, value in summary.items()})
+
+
+def _plain(value):
+    """JSON-ready Python value from numpy scalars."""
+    if isinstance(value, np.generic):
+        return value.item()
+    return value
+
+
+def fit(analysis_path, impacts_path, out_path, ball_type=None, itf_drop_height_m=ITF_DROP_HEIGHT_M,
+        itf_rebound_min_m=ITF_REBOUND_MIN_M, itf_rebound_max_m=ITF_REBOUND_MAX_M, itf_drop_height_tolerance_m=0.02):
+    """Impacts → fit result JSON: e with uncertainty, theory checks, ITF verdict, provenance."""
+    # JSON has no NaN: the analysis wrote missing numbers (no rest seen, BIC of a model not tried) as null
+    summary = {key: float("nan") if value is None else value for key, value in read_json(analysis_path).items()}
+    impacts = read_table(impacts_path)
+    attrs = summary.get("trajectory_attrs", {})
+    ball_type = ball_type or attrs.get("ball_type")
+    constant = constant_restitution(impacts["e"].to_numpy(), np.asarray(summary["e_covariance"]))
+    e, e_se = constant["e"]["value"], constant["e"]["se"]
+    if constant["dof"] > 0 and constant["p_value"] < 0.01:
+        why = (f"constant e is the simplest model; the impacts disagree with it (chi2 = {constant['chi2']:.1f} "
+               f"for {constant['dof']} degrees of freedom, p = {constant['p_value']:.2g}): e varies between impacts")
+    else:
+        why = "constant e is the simplest model and the impacts agree with it within their uncertainty"
+    fall_time = impacts["t_touchdown_s"].iloc[0] - summary["drop_apex_time_s"]
+    theory = theory_checks(e, e_se, summary["drop_height_m"], fall_time, impacts["h_after_m"].to_numpy(),
+                           impacts["h_after_se_m"].to_numpy(), summary["rest_time_s"] - summary["drop_apex_time_s"])
+    itf = _itf(ball_type, summary, impacts, e, e_se, itf_drop_height_m, itf_rebound_min_m, itf_rebound_max_m,
+               itf_drop_height_tolerance_m)
+    resolvable = bool(impacts["contact_resolvable"].any())
+    result = {
+        "status": "ok",
+        "sample_id": attrs.get("sample_id"),
+        "source": attrs.get("source"),
+        "source_sha256": attrs.get("source_sha256"),
+        "dropfit_version": __version__,
+        "ball": {"type": ball_type, "radius_m": attrs.get("ball_radius_m"), "mass_kg": attrs.get("ball_mass_kg")},
+        "calibration": attrs.get("calibration"),
+        "restitution": {"model": "constant", "why": why, **constant},
+        "drag": {
+            "model": summary["drag_model"],
+            "k_per_m": estimate(summary["drag_k_per_m"], summary["drag_k_se_per_m"], "1/m"),
+            "bic_no_drag": summary["bic_no_drag"],
+            "bic_quadratic_drag": summary["bic_quadratic_drag"],
+            "why": "chosen by the Bayesian information criterion (lower wins)"
+            if np.isfinite(summary["bic_quadratic_drag"]) and np.isfinite(summary["bic_no_drag"])
+            else "fixed by the --drag option",
+        },
+        "drop_height_m": estimate(summary["drop_height_m"], summary["drop_height_se_m"], "m"),
+        "contact_height_m": estimate(summary["contact_height_m"], summary["contact_height_se_m"], "m"),
+        "contact_time": {
+            "resolvable": resolvable,
+            "why": "contact height was estimated where the flights meet, which assumes the contact is "
+                   "instantaneous: the contact time cannot be measured from it" if not resolvable else
+                   "resolved for the impacts marked in the impacts table",
+        },
+        "noise_m": summary["noise_m"],
+        "theory": theory,
+        "itf": itf,
+        "config": {"itf_drop_height_m": itf_drop_height_m, "itf_rebound_min_m": itf_rebound_min_m,
+                   "itf_rebound_max_m": itf_rebound_max_m, "itf_drop_height_tolerance_m": itf_drop_height_tolerance_m,
+                   "gravity_m_s2": summary["gravity_m_s2"]},
+    }
+    write_json(out_path, result)
+
+
+def _itf(ball_type, summary, impacts, e, e_se, drop_height_itf, rebound_min, rebound_max, tolerance):
+    limits = {"drop_height_m": drop_height_itf, "rebound_min_m": rebound_min, "rebound_max_m": rebound_max,
+              "source": "ITF Rules of Tennis, Appendix I"}
+    if ball_type != "tennis":
+        return {"verdict": "not applicable", "why": f"the ITF rebound window is for tennis balls, this is {ball_type}",
+                "limits": limits}
+    rebound = itf_rebound(summary["drop_height_m"], summary["drop_height_se_m"], impacts["h_after_m"].iloc[0],
+                          impacts["h_after_se_m"].iloc[0], e, e_se, summary["drag_k_per_m"], summary["gravity_m_s2"],
+                          tolerance, drop_height_itf)
+    verdict = itf_verdict(rebound, rebound_min, rebound_max)
+    return {"verdict": verdict, "rebound_m": rebound, "limits": limits,
+            "why": "pass: the 95 % interval lies inside the window; fail: wholly outside; "
+                   "indeterminate: it straddles a limit"}
+
+
+def report(trajectory_path, flights_path, impacts_path, analysis_path, fit_path, html_path, figure_path):
+    """Per-recording HTML report and PNG figure."""
+    from .report import write_recording_report
+
+    write_recording_report(read_trajectory(trajectory_path), read_table(flights_path), read_table(impacts_path),
+                           read_json(analysis_path), read_json(fit_path), html_path, figure_path)
+
+
+def summary(fit_paths, csv_path, html_path):
+    """Batch summary over recordings: one row per fit result, failed recordings with their message."""
+    from .report import batch_report_html, batch_rows
+
+    rows = []
+    for path in fit_paths:
+        data = json.loads(Path(path).read_text(encoding="utf-8"))
+        data.setdefault("sample_id", Path(path).parent.name)
+        if data.get("status") == "failed":
+            data["sample_id"] = Path(path).parent.name
+        rows.append(data)
+    table = batch_rows(rows)
+    with atomic_output(csv_path) as tmp:
+        table.to_csv(tmp, index=False, float_format="%.6g")
+    write_text(html_path, batch_report_html(table))

@@ -1,0 +1,84 @@
+"""Per-recording report and batch summary, built from a small synthetic run through the stages."""
+
+import json
+
+import pandas as pd
+import pytest
+
+from dropfit import stages
+from dropfit.report import batch_report_html, batch_rows, format_pm
+
+SCENARIOS = """\
+scenarios:
+  tennis_short:
+    seed: 3
+    drop_height_m: 2.54
+    release_time_s: 0.3
+    duration_s: 7.0
+    drag_coefficient: 0.55
+    ball: {radius_m: 0.0335, mass_kg: 0.057}
+    restitution: {kind: constant, e0: 0.745}
+    sensor: {sample_rate_hz: 100, noise_m: 0.001, offset_m: 0.12, dropout_fraction: 0.01, unit: m}
+"""
+
+SECTIONS = ["Recording", "Result", "ITF verdict", "Drag", "Theory checks", "Contact time", "Impacts table", "Figure"]
+
+
+@pytest.fixture(scope="module")
+def run(tmp_path_factory):
+    """Paths of a synthetic recording carried through synth → measure → analyse → fit → report."""
+    root = tmp_path_factory.mktemp("run")
+    paths = {name: root / name for name in ["log.csv", "truth.json", "trajectory.nc", "impacts.csv",
+                                            "flights.csv", "analysis.json", "fit.json", "report.html", "figure.png"]}
+    (root / "sc.yaml").write_text(SCENARIOS, encoding="utf-8")
+    stages.synth(root / "sc.yaml", "tennis_short", paths["log.csv"], paths["truth.json"])
+    stages.measure(paths["log.csv"], paths["trajectory.nc"], sample_id="tennis_short", ball_radius_m=0.0335,
+                   ball_mass_kg=0.057, ball_type="tennis")
+    stages.analyse(paths["trajectory.nc"], paths["impacts.csv"], paths["flights.csv"], paths["analysis.json"])
+    stages.fit(paths["analysis.json"], paths["impacts.csv"], paths["fit.json"])
+    stages.report(paths["trajectory.nc"], paths["flights.csv"], paths["impacts.csv"], paths["analysis.json"],
+                  paths["fit.json"], paths["report.html"], paths["figure.png"])
+    return paths
+
+
+def test_report_has_sections_in_order_and_e(run):
+    html = run["report.html"].read_text(encoding="utf-8")
+    positions = [html.index(f"<h2>{title}</h2>") for title in SECTIONS]
+    assert positions == sorted(positions)
+    e = json.loads(run["fit.json"].read_text(encoding="utf-8"))["restitution"]["e"]
+    assert format_pm(e["value"], e["se"]) in html
+    assert "tennis_short" in html
+    assert "data:image/png;base64," in html
+
+
+def test_figure_is_png(run):
+    assert run["figure.png"].read_bytes().startswith(b"\x89PNG\r\n\x1a\n")
+
+
+def test_format_pm():
+    assert format_pm(0.745073344, 6.81e-5) == "0.745073 ± 0.000068"
+    assert format_pm(float("nan"), 0.1) == "—"
+    assert format_pm(1.5, None) == "1.5"
+
+
+def test_batch_lists_failed_recording(run):
+    failed = {"status": "failed", "error": "t.csv: no samples <b>", "sample_id": "broken"}
+    table = batch_rows([json.loads(run["fit.json"].read_text(encoding="utf-8")), failed])
+    assert list(table["status"]) == ["ok", "failed"]
+    assert table.loc[1, "error"] == failed["error"]
+    assert pd.isna(table.loc[1, "e"]) and not pd.isna(table.loc[0, "e"])
+    html = batch_report_html(table)
+    assert "1 analysed, 1 failed" in html
+    assert '<tr class="failed"><td>broken</td><td>failed</td>' in html
+    assert "t.csv: no samples &lt;b&gt;" in html
+
+
+def test_summary_stage_reads_failure_records(run, tmp_path):
+    failed_path = tmp_path / "broken" / "fit.json"
+    failed_path.parent.mkdir()
+    failed_path.write_text(json.dumps({"status": "failed", "error": "bad log"}), encoding="utf-8")
+    stages.summary([run["fit.json"], failed_path], tmp_path / "summary.csv", tmp_path / "summary.html")
+    table = pd.read_csv(tmp_path / "summary.csv")
+    assert table.loc[1, "sample_id"] == "broken" and table.loc[1, "status"] == "failed"
+    assert table.loc[1, "error"] == "bad log"
+    assert "bad log" in (tmp_path / "summary.html").read_text(encoding="utf-8")

@@ -1,0 +1,113 @@
+# Helpers: load and validate the config, the sample sheet and the synthetic scenarios, and build
+# the per-sample command-line arguments of the dropfit stages. No rules here.
+
+import math
+import re
+import shlex
+
+import pandas as pd
+import yaml
+from snakemake.utils import validate
+
+
+validate(config, schema="../schemas/config.schema.yaml")
+
+samples = pd.read_csv(
+    config["samples"],
+    sep="\t",
+    dtype={"sample_id": str, "kind": str, "path": str, "ball_type": str, "batch": str},
+    comment="#",
+)
+validate(samples, schema="../schemas/samples.schema.yaml")
+samples = samples.set_index("sample_id", drop=False)
+if not samples.index.is_unique:
+    raise ValueError(f"duplicate sample_id in {config['samples']}")
+
+with open(config["scenarios"]) as handle:
+    scenarios = yaml.safe_load(handle)
+validate(scenarios, schema="../schemas/scenarios.schema.yaml")
+
+
+def _alternatives(names):
+    """Regex matching exactly one of ``names`` (for wildcard constraints)."""
+    return "|".join(re.escape(str(name)) for name in names)
+
+
+wildcard_constraints:
+    sample=_alternatives(samples.index),
+    scenario=_alternatives(scenarios["scenarios"]),
+
+
+def _has_value(value):
+    """True unless ``value`` is missing (None, NaN or an empty string)."""
+    if value is None:
+        return False
+    if isinstance(value, float) and math.isnan(value):
+        return False
+    return str(value).strip() != ""
+
+
+def _options(pairs):
+    """``--flag value`` string of the (flag, value) pairs whose value is present, shell-quoted."""
+    return " ".join(
+        f"{flag} {shlex.quote(str(value))}" for flag, value in pairs if _has_value(value)
+    )
+
+
+def sample_row(wildcards):
+    """Sample-sheet row (pandas.Series) of ``wildcards.sample``."""
+    return samples.loc[wildcards.sample]
+
+
+def all_reports(wildcards):
+    """HTML report of every sample."""
+    return expand("results/{sample}/report.html", sample=samples.index)
+
+
+def all_fits(wildcards):
+    """fit.json of every sample, for the batch summary."""
+    return expand("results/{sample}/fit.json", sample=samples.index)
+
+
+def measure_input(wildcards):
+    """The sample's raw recording (column ``path``)."""
+    return sample_row(wildcards)["path"]
+
+
+def measure_args(wildcards):
+    """Optional ``dropfit measure`` flags: ball radius (m), mass (kg), type, scale (m/px), g (m/s²)."""
+    row = sample_row(wildcards)
+    return _options(
+        [
+            ("--ball-radius-m", row.get("ball_radius_m")),
+            ("--ball-mass-kg", row.get("ball_mass_kg")),
+            ("--ball-type", row.get("ball_type")),
+            ("--scale-m-per-px", row.get("scale_m_per_px")),
+            ("--gravity-m-s2", config.get("gravity_m_s2")),
+        ]
+    )
+
+
+def analyse_args(wildcards):
+    """Optional ``dropfit analyse`` flags: drag mode and g (m/s²)."""
+    return _options(
+        [
+            ("--drag", config.get("analysis", {}).get("drag")),
+            ("--gravity-m-s2", config.get("gravity_m_s2")),
+        ]
+    )
+
+
+def fit_args(wildcards):
+    """Optional ``dropfit fit`` flags: ball type and the ITF rebound test limits (m)."""
+    row = sample_row(wildcards)
+    itf = config.get("itf", {})
+    return _options(
+        [
+            ("--ball-type", row.get("ball_type")),
+            ("--itf-drop-height-m", itf.get("drop_height_m")),
+            ("--itf-rebound-min-m", itf.get("rebound_min_m")),
+            ("--itf-rebound-max-m", itf.get("rebound_max_m")),
+            ("--itf-drop-height-tolerance-m", itf.get("drop_height_tolerance_m")),
+        ]
+    )
