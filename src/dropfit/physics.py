@@ -16,6 +16,8 @@ import numpy as np
 
 STANDARD_GRAVITY_M_S2 = 9.80665
 AIR_DENSITY_KG_M3 = 1.2
+#: Drag coefficient of a smooth sphere at the Reynolds numbers of a drop test (10⁴–10⁵).
+SPHERE_DRAG_COEFFICIENT = 0.5
 
 
 def drag_parameter(drag_coefficient, radius_m, mass_kg, air_density_kg_m3=AIR_DENSITY_KG_M3):

@@ -64,6 +64,37 @@ def constant_restitution(e, covariance):
     }
 
 
+def drag_shift(h_before_m, h_after_m, e_variance, k_per_m, gravity_m_s2):
+    """Change of the constant e if flights fitted without drag had drag ``k_per_m`` (1/m).
+
+    Drag slows the fall and the rise, so speeds taken from apex heights without drag make e too
+    low by about k (h_before + h_after)/2. When the flight shapes are too noisy to show drag, this
+    shift, with k of a smooth sphere of the ball's size and mass, tells whether that matters.
+
+    Parameters
+    ----------
+    h_before_m, h_after_m : numpy.ndarray
+        Apex heights in m above the contact height before and after each impact.
+    e_variance : numpy.ndarray
+        Variance of each impact's e, for the same weights as :func:`constant_restitution`.
+    k_per_m : float
+        Drag parameter in 1/m.
+    gravity_m_s2 : float
+        Gravity in m/s².
+
+    Returns
+    -------
+    float
+        e with drag minus e without (dimensionless).
+    """
+    without = speed_below_apex(h_after_m, 0.0, gravity_m_s2, rising=True) / speed_below_apex(h_before_m, 0.0,
+                                                                                              gravity_m_s2)
+    with_drag = speed_below_apex(h_after_m, k_per_m, gravity_m_s2, rising=True) / speed_below_apex(
+        h_before_m, k_per_m, gravity_m_s2)
+    weights = 1.0 / np.asarray(e_variance, dtype=float)
+    return float(weights @ (with_drag - without) / weights.sum())
+
+
 def theory_checks(e, e_se, drop_height_m, fall_time_s, measured_heights_m, measured_heights_se_m,
                   measured_bouncing_time_s):
     """Compare the measured bounce sequence with the seed's constant-e, no-drag predictions.

@@ -18,9 +18,9 @@ from .analysis import analyse_bounces
 from .errors import InputError
 from .files import atomic_output, read_json, read_table, sha256_of, write_json, write_text
 from .heightlog import read_trajectory, trajectory_from_log
-from .physics import STANDARD_GRAVITY_M_S2
+from .physics import SPHERE_DRAG_COEFFICIENT, STANDARD_GRAVITY_M_S2, drag_parameter
 from .restitution import (ITF_DROP_HEIGHT_M, ITF_REBOUND_MAX_M, ITF_REBOUND_MIN_M, constant_restitution,
-                          estimate, itf_rebound, itf_verdict, theory_checks)
+                          drag_shift, estimate, itf_rebound, itf_verdict, theory_checks)
 from .synth import synthesize
 
 
@@ -97,6 +97,25 @@ def fit(analysis_path, impacts_path, out_path, ball_type=None, itf_drop_height_m
     itf = _itf(ball_type, summary, impacts, e, e_se, itf_drop_height_m, itf_rebound_min_m, itf_rebound_max_m,
                itf_drop_height_tolerance_m)
     resolvable = bool(impacts["contact_resolvable"].any())
+    drag = {
+        "model": summary["drag_model"],
+        "k_per_m": estimate(summary["drag_k_per_m"], summary["drag_k_se_per_m"], "1/m"),
+        "bic_no_drag": summary["bic_no_drag"],
+        "bic_quadratic_drag": summary["bic_quadratic_drag"],
+        "why": "chosen by the Bayesian information criterion (lower wins)"
+        if np.isfinite(summary["bic_quadratic_drag"]) and np.isfinite(summary["bic_no_drag"])
+        else "fixed by the --drag option",
+    }
+    radius, mass = attrs.get("ball_radius_m"), attrs.get("ball_mass_kg")
+    if summary["drag_model"] == "none" and radius and mass:
+        nominal_k = float(drag_parameter(SPHERE_DRAG_COEFFICIENT, radius, mass))
+        drag["nominal_k_per_m"] = nominal_k
+        drag["e_shift_with_nominal_drag"] = drag_shift(
+            impacts["h_before_m"].to_numpy(), impacts["h_after_m"].to_numpy(), np.diag(summary["e_covariance"]),
+            nominal_k, summary["gravity_m_s2"])
+        drag["note"] = (f"drag is too weak to show in the flight shapes, but a smooth sphere of this size and mass "
+                        f"(C_d = {SPHERE_DRAG_COEFFICIENT}) would raise e by {drag['e_shift_with_nominal_drag']:.2g}; "
+                        f"compare with the standard error of e")
     result = {
         "status": "ok",
         "sample_id": attrs.get("sample_id"),
@@ -106,15 +125,7 @@ def fit(analysis_path, impacts_path, out_path, ball_type=None, itf_drop_height_m
         "ball": {"type": ball_type, "radius_m": attrs.get("ball_radius_m"), "mass_kg": attrs.get("ball_mass_kg")},
         "calibration": attrs.get("calibration"),
         "restitution": {"model": "constant", "why": why, **constant},
-        "drag": {
-            "model": summary["drag_model"],
-            "k_per_m": estimate(summary["drag_k_per_m"], summary["drag_k_se_per_m"], "1/m"),
-            "bic_no_drag": summary["bic_no_drag"],
-            "bic_quadratic_drag": summary["bic_quadratic_drag"],
-            "why": "chosen by the Bayesian information criterion (lower wins)"
-            if np.isfinite(summary["bic_quadratic_drag"]) and np.isfinite(summary["bic_no_drag"])
-            else "fixed by the --drag option",
-        },
+        "drag": drag,
         "drop_height_m": estimate(summary["drop_height_m"], summary["drop_height_se_m"], "m"),
         "contact_height_m": estimate(summary["contact_height_m"], summary["contact_height_se_m"], "m"),
         "contact_time": {

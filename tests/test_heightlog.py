@@ -1,0 +1,219 @@
+"""Height logs: units, pixel calibration, dropouts and bad input, against the synthetic ground truth."""
+
+import numpy as np
+import pytest
+
+from dropfit.analysis import analyse_bounces
+from dropfit.errors import InputError
+from dropfit.heightlog import QUALITY_DROPOUT, QUALITY_OK, read_height_log, trajectory_from_log
+from dropfit.synth import sample_height_log, simulate_drop
+
+#: Noise-free logs are written with ``%.6f`` in their own unit; the worst rounding (unit m) is 5e-7 m.
+CSV_ROUNDING_TOL_M = 1e-6  # m
+#: Times are written with ``%.6f`` in s or ms.
+CSV_ROUNDING_TOL_S = 1e-6  # s
+#: Gravity calibration of a no-drag flight must give the image scale to this relative accuracy.
+GRAVITY_SCALE_RTOL = 2e-3  # 1 (0.2 %)
+#: The calibration error must lie within this many of its own reported standard errors.
+SCALE_ERROR_IN_SE = 4.0  # 1
+
+PX_PER_M = 800.0  # px/m, image scale of the synthetic camera
+FLOOR_ROW_PX = 700.0  # px, image row of height 0
+UNIT_IN_M = {"m": 1.0, "cm": 1e-2, "mm": 1e-3}  # m per unit, written out independently of dropfit
+
+
+def write_log(path, frame, comment="# synthetic height log written by the tests"):
+    """Write ``frame`` as a height-log CSV, the way ``dropfit synth`` does (comment line, ``%.6f``).
+
+    Returns
+    -------
+    pathlib.Path
+        ``path``.
+    """
+    path.write_text(comment + "\n" + frame.to_csv(index=False, float_format="%.6f", na_rep=""), encoding="utf-8")
+    return path
+
+
+def noise_free_log(truth, unit, offset_m=0.0, **kwargs):
+    """100 Hz, noise-free log of ``truth`` in ``unit`` (seeded, although nothing here is random)."""
+    return sample_height_log(truth, np.random.default_rng(0), 100.0, noise_m=0.0, offset_m=offset_m, unit=unit,
+                             **kwargs)
+
+
+def thud_truth():
+    """A ball that falls 1 m and lies still where it lands (e = 0): no bounce at all."""
+    return simulate_drop(1.0, 0.03, {"kind": "constant", "e0": 0.0})
+
+
+# --- units ----------------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("unit", ["m", "cm", "mm"])
+def test_length_units_convert_to_metres(tennis_truth, tmp_path, unit):
+    """The same motion logged in m, cm or mm gives the true height + offset in m (within CSV rounding)."""
+    offset_m = 0.2  # m, sensor zero offset
+    frame = noise_free_log(tennis_truth, unit, offset_m=offset_m)
+    assert list(frame.columns) == ["time_s", f"y_{unit}"]
+    trajectory = trajectory_from_log(write_log(tmp_path / f"log_{unit}.csv", frame))
+    expected = tennis_truth.height(frame["time_s"].to_numpy()) + offset_m
+    assert trajectory["y"].attrs["units"] == "m"
+    assert trajectory.attrs["log_unit"] == unit
+    np.testing.assert_allclose(trajectory["time"].values, frame["time_s"], rtol=0, atol=CSV_ROUNDING_TOL_S)
+    np.testing.assert_allclose(trajectory["y"].values, expected, rtol=0, atol=CSV_ROUNDING_TOL_M)
+
+
+def test_unit_logs_agree_with_each_other(tennis_truth, tmp_path):
+    """m, cm and mm logs of one motion give the same trajectory (within CSV rounding, m)."""
+    heights = [trajectory_from_log(write_log(tmp_path / f"{unit}.csv", noise_free_log(tennis_truth, unit)))["y"].values
+               for unit in UNIT_IN_M]
+    for other in heights[1:]:
+        np.testing.assert_allclose(other, heights[0], rtol=0, atol=CSV_ROUNDING_TOL_M)
+
+
+def test_time_in_ms_is_converted_to_seconds(tennis_truth, tmp_path):
+    """A ``time_ms`` column is read as ms: 10 ms steps at 100 Hz become 0.01 s."""
+    frame = noise_free_log(tennis_truth, "cm")
+    time_s = frame["time_s"].to_numpy()
+    frame = frame.rename(columns={"time_s": "time_ms"})
+    frame["time_ms"] = 1e3 * time_s
+    time, height, unit = read_height_log(write_log(tmp_path / "ms.csv", frame))
+    assert unit == "cm"
+    np.testing.assert_allclose(time, np.arange(time_s.size) / 100.0, rtol=0, atol=CSV_ROUNDING_TOL_S)
+    trajectory = trajectory_from_log(tmp_path / "ms.csv")
+    np.testing.assert_allclose(trajectory["y"].values, tennis_truth.height(time_s), rtol=0, atol=CSV_ROUNDING_TOL_M)
+
+
+# --- pixels ---------------------------------------------------------------------------------------
+
+def px_log(truth, noise_m=0.0, seed=0, px_per_m=PX_PER_M):
+    """Camera log of ``truth`` in image rows (down for positive ``px_per_m``), seeded."""
+    return sample_height_log(truth, np.random.default_rng(seed), 100.0, noise_m=noise_m, unit="px",
+                             px_per_m=px_per_m, image_row_of_floor_px=FLOOR_ROW_PX)
+
+
+def test_px_with_given_negative_scale(tennis_truth, tmp_path):
+    """Image rows times a given negative scale (m/px) give the height up, floor row at 0 px."""
+    scale = -1.0 / PX_PER_M  # m/px, rows point down
+    trajectory = trajectory_from_log(write_log(tmp_path / "px.csv", px_log(tennis_truth)), scale_m_per_px=scale)
+    time = trajectory["time"].values
+    # row = FLOOR_ROW - PX_PER_M * y, so scale * row = y - FLOOR_ROW / PX_PER_M
+    expected = tennis_truth.height(time) - FLOOR_ROW_PX / PX_PER_M
+    np.testing.assert_allclose(trajectory["y"].values, expected, rtol=0, atol=CSV_ROUNDING_TOL_M)
+    assert trajectory.attrs["scale_m_per_px"] == scale
+    assert trajectory.attrs["log_unit"] == "px"
+
+
+@pytest.mark.parametrize("noise_m", [0.0, 0.001])
+def test_px_scale_from_gravity_rows_down(vacuum_truth, tmp_path, noise_m):
+    """Without a scale, a no-drag px log is calibrated from g: |s| = 1/px_per_m within 0.2 %, s < 0."""
+    path = write_log(tmp_path / "px.csv", px_log(vacuum_truth, noise_m=noise_m, seed=3))
+    trajectory = trajectory_from_log(path)
+    scale, scale_se = trajectory.attrs["scale_m_per_px"], trajectory.attrs["scale_se_m_per_px"]
+    assert scale < 0  # image rows point down
+    assert scale == pytest.approx(-1.0 / PX_PER_M, rel=GRAVITY_SCALE_RTOL)
+    assert scale_se > 0
+    if noise_m > 0:
+        assert abs(scale + 1.0 / PX_PER_M) < SCALE_ERROR_IN_SE * scale_se
+    # the calibrated heights are the true heights up to a constant (the floor row)
+    up = trajectory["y"].values + FLOOR_ROW_PX / PX_PER_M
+    np.testing.assert_allclose(up, vacuum_truth.height(trajectory["time"].values), rtol=0,
+                               atol=5 * noise_m + GRAVITY_SCALE_RTOL * FLOOR_ROW_PX / PX_PER_M)
+
+
+def test_px_scale_from_gravity_axis_up(vacuum_truth, tmp_path):
+    """A px axis pointing up (row = floor + px_per_m * y) is detected: the scale comes out positive."""
+    path = write_log(tmp_path / "px_up.csv", px_log(vacuum_truth, noise_m=0.001, seed=4, px_per_m=-PX_PER_M))
+    trajectory = trajectory_from_log(path)
+    assert trajectory.attrs["scale_m_per_px"] == pytest.approx(1.0 / PX_PER_M, rel=GRAVITY_SCALE_RTOL)
+
+
+def test_px_gravity_scale_se_matches_scatter(vacuum_truth, tmp_path):
+    """Over seeded 1 mm-noise logs each error is < 4 se, and the errors scatter like the reported se."""
+    errors, ses = [], []
+    for seed in range(10):
+        path = write_log(tmp_path / f"px_{seed}.csv", px_log(vacuum_truth, noise_m=0.001, seed=seed))
+        attrs = trajectory_from_log(path).attrs
+        errors.append(attrs["scale_m_per_px"] + 1.0 / PX_PER_M)  # m/px
+        ses.append(attrs["scale_se_m_per_px"])  # m/px
+    errors, ses = np.array(errors), np.array(ses)
+    assert np.all(np.abs(errors) < SCALE_ERROR_IN_SE * ses)
+    # 10 samples: the rms error estimates the true spread to about ±25 %, so allow a factor 2
+    ratio = np.sqrt(np.mean(errors**2)) / np.mean(ses)
+    assert 0.5 < ratio < 2.0
+
+
+# --- dropouts -------------------------------------------------------------------------------------
+
+def test_dropouts_stay_nan_with_quality_flag(tennis_truth, tmp_path):
+    """Empty height values stay NaN (not interpolated), flagged 1; the other samples are flagged 0."""
+    frame = sample_height_log(tennis_truth, np.random.default_rng(12), 100.0, noise_m=0.0, dropout_fraction=0.05)
+    lost = frame["y_m"].isna().to_numpy()
+    assert lost.sum() > 10  # the generator did drop samples
+    trajectory = trajectory_from_log(write_log(tmp_path / "dropouts.csv", frame))
+    y, quality = trajectory["y"].values, trajectory["quality"].values
+    assert y.size == len(frame)  # dropouts keep their time stamps
+    np.testing.assert_array_equal(np.isnan(y), lost)
+    np.testing.assert_array_equal(quality, np.where(lost, QUALITY_DROPOUT, QUALITY_OK))
+    assert QUALITY_DROPOUT == 1 and QUALITY_OK == 0
+    assert trajectory.attrs["n_dropouts"] == lost.sum()
+    np.testing.assert_allclose(y[~lost], tennis_truth.height(frame["time_s"].to_numpy()[~lost]), rtol=0,
+                               atol=CSV_ROUNDING_TOL_M)
+
+
+# --- bad input ------------------------------------------------------------------------------------
+
+#: name → (file content or None for a missing file, words the message must contain)
+BAD_LOGS = {
+    "missing": (None, ["not found"]),
+    "empty": ("", ["empty"]),
+    "only_comments": ("# dropfit height log\n# nothing was recorded\n", ["empty"]),
+    "wrong_columns": ("t,height\n0.0,1.0\n0.01,0.99\n", ["time_s", "t, height"]),
+    "no_rows": ("# header only\ntime_s,y_m\n", ["no samples"]),
+    "not_a_number": ("time_s,y_m\n0.00,1.0\n0.01,abc\n0.02,0.98\n", ["y_m", "not a number", "abc"]),
+    "repeated_time": ("time_s,y_m\n0.00,1.0\n0.01,0.99\n0.01,0.99\n0.02,0.98\n", ["does not increase"]),
+    "all_nan": ("time_s,y_m\n0.00,\n0.01,\n0.02,nan\n", ["y_m", "no valid value"]),
+}
+
+
+def write_bad_log(directory, name):
+    """Write the bad log ``name`` of :data:`BAD_LOGS` (or nothing, for the missing file); return its path."""
+    content = BAD_LOGS[name][0]
+    path = directory / f"{name}.csv"
+    if content is not None:
+        path.write_text(content, encoding="utf-8")
+    return path
+
+
+def assert_one_line_about(message, path, words):
+    """An InputError message: one line, starting with the file path, saying what is wrong."""
+    assert "\n" not in message
+    assert message.startswith(str(path))
+    for word in words:
+        assert word in message
+
+
+@pytest.mark.parametrize("name", sorted(BAD_LOGS))
+def test_bad_log_raises_one_line_input_error(tmp_path, name):
+    """Each kind of bad log raises InputError with a one-line message that names the file."""
+    path = write_bad_log(tmp_path, name)
+    with pytest.raises(InputError) as caught:
+        read_height_log(path)
+    assert_one_line_about(str(caught.value), path, BAD_LOGS[name][1])
+
+
+def write_no_bounce_log(path, kind, seed=21):
+    """A 1 mm-noise log in which the ball never bounces: ``thud`` (falls, lies still) or ``held`` (never falls)."""
+    truth = thud_truth()
+    frame = sample_height_log(truth, np.random.default_rng(seed), 100.0, duration_s=2.0, noise_m=0.001)
+    if kind == "held":
+        frame["y_m"] = truth.height(0.0) + np.random.default_rng(seed + 1).normal(0.0, 0.001, len(frame))
+    return write_log(path, frame)
+
+
+@pytest.mark.parametrize("kind", ["thud", "held"])
+def test_no_bounce_raises_input_error_naming_the_source(tmp_path, kind):
+    """A ball that falls and lies still, or is held still, has no bounce: InputError naming the log."""
+    path = write_no_bounce_log(tmp_path / f"{kind}.csv", kind)
+    trajectory = trajectory_from_log(path)  # a valid log ...
+    with pytest.raises(InputError) as caught:  # ... but nothing to analyse
+        analyse_bounces(trajectory["time"].values, trajectory["y"].values, source=trajectory.attrs["source"])
+    assert_one_line_about(str(caught.value), path, [])
