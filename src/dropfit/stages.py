@@ -47,8 +47,9 @@ def measure(log_path, out_path, sample_id=None, ball_radius_m=None, ball_mass_kg
     trajectory = trajectory_from_log(
         log_path, scale_m_per_px=scale_m_per_px, gravity_m_s2=gravity_m_s2,
         attrs={"sample_id": sample_id, "ball_radius_m": ball_radius_m, "ball_mass_kg": ball_mass_kg,
-               "ball_type": ball_type, "source_sha256": sha256_of(log_path), "dropfit_version": __version__},
+               "ball_type": ball_type, "dropfit_version": __version__},
     )
+    trajectory.attrs["source_sha256"] = sha256_of(log_path)  # after the read: it has checked the file exists
     with atomic_output(out_path) as tmp:
         trajectory.to_netcdf(tmp)
 

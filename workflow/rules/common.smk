@@ -2,6 +2,7 @@
 # the per-sample command-line arguments of the dropfit stages. No rules here.
 
 import math
+import os
 import re
 import shlex
 
@@ -69,9 +70,22 @@ def all_fits(wildcards):
     return expand("results/{sample}/fit.json", sample=samples.index)
 
 
-def measure_input(wildcards):
+def recording_path(wildcards):
     """The sample's raw recording (column ``path``)."""
     return sample_row(wildcards)["path"]
+
+
+def measure_input(wildcards):
+    """The recording as the measure job's input, if it exists or a rule makes it.
+
+    A missing recording must not stop the batch: the job then runs without input, and
+    ``dropfit measure`` writes the failure record that names the missing file.
+    """
+    path = recording_path(wildcards)
+    synthetic = {f"data/synthetic/{name}.csv" for name in scenarios["scenarios"]}
+    if os.path.exists(path) or os.path.normpath(path) in synthetic:
+        return path
+    return []
 
 
 def measure_args(wildcards):

@@ -1,0 +1,122 @@
+"""The Snakemake workflow, run in a copy of the repository: lint, dry run, and (slow) a whole batch with
+two bad recordings, checked against the synthetic ground truth."""
+
+import json
+import re
+import shutil
+import subprocess
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from test_heightlog import write_no_bounce_log
+
+REPO = Path(__file__).resolve().parents[1]
+#: Time limit of a whole workflow run (about 25 s on a laptop).
+RUN_TIMEOUT_S = 600  # s
+#: Time limit of a lint or dry run.
+QUICK_TIMEOUT_S = 120  # s
+#: e of a constant-e scenario must match the generator's e_mean to this.
+E_TOL = 0.002  # 1 (dimensionless)
+#: Scenarios whose e does not depend on the impact speed, so that e_mean is the e to recover.
+CONSTANT_E_SCENARIOS = ["tennis_itf", "steel_ball", "table_tennis_drag"]
+#: The bad recordings appended to the sample sheet: sample_id → path relative to the copy
+#: (the last one is never written: a missing file must not stop the batch either).
+BAD_SAMPLES = {"bad_empty": "data/bad/empty.csv", "bad_no_bounce": "data/bad/no_bounce.csv",
+               "bad_missing": "data/bad/missing.csv"}
+
+
+def copy_workflow(destination):
+    """Copy the Snakefile, workflow/, config/ and data/ (no results or .snakemake) to ``destination``."""
+    ignore = shutil.ignore_patterns("results", ".snakemake", "__pycache__")
+    shutil.copy2(REPO / "Snakefile", destination / "Snakefile")
+    for name in ("workflow", "config", "data"):
+        shutil.copytree(REPO / name, destination / name, ignore=ignore)
+    return destination
+
+
+def snakemake(*args, cwd, timeout=QUICK_TIMEOUT_S):
+    """Run ``snakemake ARGS`` in ``cwd``; return the CompletedProcess (text)."""
+    executable = shutil.which("snakemake")
+    assert executable is not None, "snakemake is not installed"
+    return subprocess.run([executable, *args], cwd=cwd, capture_output=True, text=True, timeout=timeout)
+
+
+def good_samples(root):
+    """Sample ids of the repository's sample sheet (all good recordings)."""
+    return pd.read_csv(root / "config" / "samples.tsv", sep="\t", comment="#")["sample_id"].tolist()
+
+
+def test_lint_reports_only_conda_and_container_hints(tmp_path):
+    """``snakemake --lint``: every lint is the conda/container hint (we run in one Python environment)."""
+    root = copy_workflow(tmp_path)
+    result = snakemake("--lint", cwd=root)
+    output = result.stdout + result.stderr
+    assert "Traceback" not in output and "Error" not in output
+    # a lint report is "Lints for rule R (line, file):" followed by "* <lint>:" items and their text
+    headers = re.findall(r"^Lints for (.*)$", output, flags=re.MULTILINE)
+    items = re.findall(r"^\s*\* (.*)$", output, flags=re.MULTILINE)
+    assert all(header.startswith("rule ") for header in headers)  # no lints about the Snakefile as a whole
+    assert all("conda environment or container" in item for item in items), items
+    assert len(items) == len(headers)  # one item per rule
+    # snakemake exits 1 when it printed any lint, 0 when there was none
+    assert result.returncode == (1 if items else 0)
+
+
+def test_dry_run_plans_every_sample(tmp_path):
+    """``snakemake -n`` with the default profile succeeds and plans one measure job per sample."""
+    root = copy_workflow(tmp_path)
+    result = snakemake("-n", "--profile", "workflow/profiles/default", cwd=root)
+    assert result.returncode == 0, result.stderr
+    output = result.stdout + result.stderr
+    counts = dict(re.findall(r"^(\w+)\s+(\d+)$", output, flags=re.MULTILINE))
+    n = len(good_samples(root))
+    for rule in ("measure", "analyse", "fit", "report"):
+        assert int(counts[rule]) == n
+    assert int(counts["summary"]) == 1
+
+
+@pytest.mark.slow
+def test_batch_with_bad_recordings(tmp_path):
+    """A full run with three bad recordings: exit 0, good samples fitted and reported, bad ones in the summary.
+
+    The good samples' e must match the ground truth of the constant-e scenarios within 0.002.
+    """
+    root = copy_workflow(tmp_path)
+    good = good_samples(root)
+    bad_dir = root / "data" / "bad"
+    bad_dir.mkdir()
+    (root / BAD_SAMPLES["bad_empty"]).write_text("", encoding="utf-8")
+    write_no_bounce_log(root / BAD_SAMPLES["bad_no_bounce"], "thud")
+    with open(root / "config" / "samples.tsv", "a", encoding="utf-8") as sheet:
+        for sample_id, path in BAD_SAMPLES.items():
+            sheet.write(f"{sample_id}\theight_log\t{path}\ttennis\t0.0335\t0.057\t\tbad\n")
+
+    result = snakemake("--profile", "workflow/profiles/default", "--cores", "2", cwd=root, timeout=RUN_TIMEOUT_S)
+    assert result.returncode == 0, result.stderr[-3000:]
+
+    for sample in good:
+        assert (root / "results" / sample / "report.html").is_file()
+        fit = json.loads((root / "results" / sample / "fit.json").read_text(encoding="utf-8"))
+        assert fit["status"] == "ok", fit
+        assert fit["sample_id"] == sample
+
+    summary = pd.read_csv(root / "results" / "batch" / "summary.csv").set_index("sample_id")
+    assert sorted(summary.index) == sorted(good + list(BAD_SAMPLES))
+    for sample_id, path in BAD_SAMPLES.items():
+        assert summary.loc[sample_id, "status"] == "failed"
+        assert summary.loc[sample_id, "error"].startswith(path)
+        assert np.isnan(summary.loc[sample_id, "e"])
+    assert "empty" in summary.loc["bad_empty", "error"]
+    assert "bounce" in summary.loc["bad_no_bounce", "error"]
+    assert "not found" in summary.loc["bad_missing", "error"]
+    assert (summary.loc[good, "status"] == "ok").all()
+
+    for scenario in CONSTANT_E_SCENARIOS:
+        truth = json.loads((root / "data" / "synthetic" / f"{scenario}.truth.json").read_text(encoding="utf-8"))
+        assert truth["scenario"]["restitution"]["kind"] == "constant"
+        fit = json.loads((root / "results" / scenario / "fit.json").read_text(encoding="utf-8"))
+        assert fit["restitution"]["e"]["value"] == pytest.approx(truth["e_mean"], abs=E_TOL)
+        assert summary.loc[scenario, "e"] == pytest.approx(truth["e_mean"], abs=E_TOL)
