@@ -127,3 +127,44 @@ def test_drag_too_weak_to_fit_is_quantified_by_the_nominal_shift():
     shift = drag_shift(impacts["h_before_m"].to_numpy(), impacts["h_after_m"].to_numpy(),
                        np.diag(analysis.e_covariance), drag_parameter(SPHERE_DRAG_COEFFICIENT, radius, mass), 9.80665)
     assert abs(constant["value"] + shift - 0.92) < 3 * constant["se"]
+
+
+CONTACT_TIME_TOLERANCE_MS = 0.2  # ms
+CONTACT_PARAMETER_TOLERANCE = 0.10  # relative
+
+
+@pytest.mark.parametrize("sample_rate_hz, noise_m", [(1000.0, 2e-4), (2000.0, 1e-4)])
+def test_contact_time_stiffness_and_damping_with_a_known_floor(sample_rate_hz, noise_m):
+    """Impacts through the seed's spring–damper, floor known: contact time within ±0.2 ms, k and c within
+    10 %, each within four of its reported standard errors."""
+    from dropfit.contact import LinearContact, fit_linear_contact
+    from dropfit.synth import simulate_drop
+
+    radius, mass, stiffness, damping = 0.0335, 0.057, 3e4, 8.2  # m, kg, N/m, N·s/m
+    truth = simulate_drop(1.0, radius, mass_kg=mass, contact_model=LinearContact(stiffness, damping))
+    log = sensor_log(truth, 11, sample_rate_hz=sample_rate_hz, noise_m=noise_m, offset_m=0.0, dropout_fraction=0.0)
+    log = log[log["time_s"] < 2.5]
+    analysis = analyse_bounces(log["time_s"], log["y_m"], contact_height_m=radius)
+    impacts = analysis.impacts[analysis.impacts["contact_resolvable"]]
+    assert len(impacts) >= 3
+    true_ms = 1e3 * (truth.impacts["t_liftoff_s"] - truth.impacts["t_s"]).to_numpy()[impacts.index]
+    error_ms = impacts["t_contact_ms"].to_numpy() - true_ms
+    assert np.all(np.abs(error_ms) < CONTACT_TIME_TOLERANCE_MS)
+    assert np.all(np.abs(error_ms) < 4 * impacts["t_contact_se_ms"].to_numpy())
+    fitted = fit_linear_contact(mass, impacts["v_in_m_s"], impacts["e"], impacts["e_se"],
+                                1e-3 * impacts["t_contact_ms"], 1e-3 * impacts["t_contact_se_ms"])
+    for name, true_value in (("stiffness_n_m", stiffness), ("damping_n_s_m", damping)):
+        value, se = fitted[name]
+        assert value == pytest.approx(true_value, rel=CONTACT_PARAMETER_TOLERANCE)
+        assert abs(value - true_value) < 4 * se
+
+
+def test_contact_is_not_resolvable_at_100_hz():
+    """A 4 ms contact sampled every 10 ms: no contact time is claimed, even with the floor known."""
+    from dropfit.contact import LinearContact
+    from dropfit.synth import simulate_drop
+
+    truth = simulate_drop(1.0, 0.0335, mass_kg=0.057, contact_model=LinearContact(3e4, 8.2))
+    log = sensor_log(truth, 12, offset_m=0.0)
+    analysis = analyse_bounces(log["time_s"], log["y_m"], contact_height_m=0.0335)
+    assert not analysis.impacts["contact_resolvable"].any()

@@ -9,15 +9,24 @@ __version__ = "0.1.0"
 from .analysis import BounceAnalysis, analyse_bounces
 from .errors import InputError
 from .heightlog import read_height_log, trajectory_from_log
+from .impulse import (BallOnBlock, CentralImpact, average_force, ball_on_block, central_impact,
+                      half_sine_peak_force, impulse)
 from .restitution import constant_restitution, itf_rebound, itf_verdict, theory_checks
 from .synth import DropTruth, sample_height_log, simulate_drop, synthesize
 
 __all__ = [
+    "BallOnBlock",
     "BounceAnalysis",
+    "CentralImpact",
     "DropTruth",
     "InputError",
     "analyse_bounces",
+    "average_force",
+    "ball_on_block",
+    "central_impact",
     "constant_restitution",
+    "half_sine_peak_force",
+    "impulse",
     "itf_rebound",
     "itf_verdict",
     "read_height_log",

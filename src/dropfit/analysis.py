@@ -89,19 +89,41 @@ def find_release(y, noise):
     return max(int(falling[0]) - 1, 0)
 
 
-def find_impacts(y, noise, start=0):
+def find_impacts(y, noise, start=0, max_lag=3):
     """Indices of the lowest sample of each bounce after ``start``.
 
-    A bounce is a sample that is the lowest of the five around it and lies at least
-    ``IMPACT_DEPTH_IN_NOISE`` noise standard deviations below the samples two, or three, steps
-    before and after it (three catches the slow, low bounces at the end of a sequence).
+    A bounce is a sample that is the lowest within ``lag`` samples on either side and lies at least
+    ``IMPACT_DEPTH_IN_NOISE`` noise standard deviations below the samples ``lag`` steps before and
+    after it, for some lag from 2 to ``max_lag``. Short lags catch the short flights of low bounces;
+    long lags catch impacts sampled so densely that the ball's rounded path through the contact
+    rises slowly from sample to sample. Lags are tried from short to long and a longer lag adds
+    only dips farther than that lag from those already found.
     """
     depth = IMPACT_DEPTH_IN_NOISE * noise
-    idx = np.arange(max(start, 3), y.size - 3)
-    window = np.stack([y[idx + shift] for shift in (-2, -1, 0, 1, 2)])
-    is_lowest = np.argmin(window, axis=0) == 2
-    rise = np.maximum(np.minimum(y[idx - 2], y[idx + 2]), np.minimum(y[idx - 3], y[idx + 3])) - y[idx]
-    return idx[is_lowest & (rise > depth)]
+    lags = [2]
+    while lags[-1] < max_lag:
+        lags.append(min(max_lag, max(lags[-1] + 1, int(lags[-1] * 1.5))))
+    found = np.array([], dtype=int)
+    for lag in lags:
+        idx = np.arange(max(start, lag), y.size - lag)
+        if idx.size == 0:
+            break
+        lowest = np.ones(idx.size, dtype=bool)
+        for shift in range(1, lag + 1):
+            lowest &= (y[idx] <= y[idx - shift]) & (y[idx] <= y[idx + shift])
+        rise = np.minimum(y[idx - lag], y[idx + lag]) - y[idx]
+        # the lag-2 test also accepts a rise over three samples, for slow, low bounces
+        if lag == 2 and y.size > 3:
+            wider = np.full(idx.size, -np.inf)
+            ok = (idx >= 3) & (idx + 3 < y.size)
+            wider[ok] = np.minimum(y[idx[ok] - 3], y[idx[ok] + 3]) - y[idx[ok]]
+            rise = np.maximum(rise, wider)
+        candidates = idx[lowest & (rise > depth)]
+        if found.size:
+            distance = np.min(np.abs(candidates[:, None] - found[None, :]), axis=1) if candidates.size else []
+            candidates = candidates[np.asarray(distance) > lag] if candidates.size else candidates
+        found = np.union1d(found, candidates)
+    return found
 
 
 def _last_flight_end(y, after, noise):
@@ -308,17 +330,25 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
     release = find_release(y, noise)
     if release is None:
         raise InputError(f"{source}: the ball never falls (height stays within noise of its start)")
-    minima = find_impacts(y, noise, start=release + 1)
+    # lags up to ~10 ms: dense sampling through a contact that lasts a few milliseconds
+    sample_interval = float(np.median(np.diff(t)))
+    minima = find_impacts(y, noise, start=release + 1, max_lag=max(3, int(round(0.01 / sample_interval))))
     if minima.size == 0:
         raise InputError(f"{source}: no bounce found (no dip deeper than {IMPACT_DEPTH_IN_NOISE:g} noise "
                          f"standard deviations after the release)")
 
-    # first pass: cut at the lowest samples, leaving them out
+    # first pass: cut at the lowest samples, leaving them out (and, with a known contact height,
+    # the samples pressed below it)
     end_of_last = _last_flight_end(y, minima[-1], noise)
     edges = np.concatenate([[release], minima, [end_of_last]])
-    sample_bounds = list(zip(edges[:-1], edges[1:]))
     bounds = []
-    for start, stop in sample_bounds:
+    for start, stop in zip(edges[:-1], edges[1:]):
+        if contact_height_m is not None and start != release:
+            while start + 1 < stop and y[start + 1] < contact_height_m:
+                start += 1
+        if contact_height_m is not None and stop < t.size:
+            while stop - 1 > start and y[stop - 1] < contact_height_m:
+                stop -= 1
         lo = t[start] - (1e-9 if start == release else -1e-9)  # the release sample is the first of flight 0
         hi = t[stop] - 1e-9 if stop < t.size else t[-1] + 1.0
         bounds.append((lo, hi))

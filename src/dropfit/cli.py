@@ -45,6 +45,8 @@ def _parser():
     measure.add_argument("--scale-m-per-px", type=float,
                          help="m per px for logs in px (negative if the axis points down); default: from gravity")
     measure.add_argument("--gravity-m-s2", type=float, default=STANDARD_GRAVITY_M_S2, help="gravity in m/s²")
+    measure.add_argument("--floor-m", type=float,
+                         help="height of the floor in the log's frame, in m (makes contact times measurable)")
 
     analyse = stage("analyse", "trajectory → impacts and flights tables (CSV) and analysis summary (JSON)")
     analyse.add_argument("trajectory")
@@ -82,7 +84,7 @@ def _run(args):
         stages.synth(args.scenarios, args.name, args.log, args.truth, args.seed)
     elif args.command == "measure":
         stages.measure(args.log, args.out, args.sample_id, args.ball_radius_m, args.ball_mass_kg, args.ball_type,
-                       args.scale_m_per_px, args.gravity_m_s2)
+                       args.scale_m_per_px, args.gravity_m_s2, args.floor_m)
     elif args.command == "analyse":
         stages.analyse(args.trajectory, args.impacts, args.flights, args.summary, args.drag, args.gravity_m_s2)
     elif args.command == "fit":

@@ -373,3 +373,46 @@ def hunt_crossley_from_measurements(mass_kg, impact_speed_m_s, e, contact_time_s
 
     solution = least_squares(mismatch, np.log([k0, chi0]), xtol=1e-14, ftol=1e-14, gtol=1e-14)
     return tuple(float(x) for x in np.exp(solution.x))
+
+
+def fit_linear_contact(mass_kg, impact_speed_m_s, e, e_se, contact_time_s, contact_time_se_s,
+                       gravity_m_s2=STANDARD_GRAVITY_M_S2):
+    """k and c of the linear contact from measured impacts, with standard errors.
+
+    Each impact's (e, contact time) is inverted exactly (:func:`linear_from_measurements`); its
+    standard errors are propagated by the Jacobian of that inversion, treating the errors of e and
+    of the contact time as independent. The impacts are combined by inverse-variance weighting.
+
+    Parameters
+    ----------
+    mass_kg : float
+        Ball mass in kg.
+    impact_speed_m_s, e, e_se, contact_time_s, contact_time_se_s : array_like
+        Per impact: touchdown speed (m/s), e and its se (dimensionless), contact time and its se (s).
+    gravity_m_s2 : float
+        Gravity in m/s².
+
+    Returns
+    -------
+    dict
+        ``stiffness_n_m`` and ``damping_n_s_m`` as (value, se) pairs combined over the impacts, and
+        ``per_impact``: a list of dicts with the same per impact.
+    """
+    per_impact = []
+    for v0, ei, ei_se, tc, tc_se in zip(impact_speed_m_s, e, e_se, contact_time_s, contact_time_se_s):
+        params = np.array(linear_from_measurements(mass_kg, v0, ei, tc, gravity_m_s2))
+        jac = np.empty((2, 2))
+        for j, (step, shifted) in enumerate(((1e-6, (ei + 1e-6, tc)), (1e-6 * tc, (ei, tc * (1 + 1e-6))))):
+            jac[:, j] = (np.array(linear_from_measurements(mass_kg, v0, *shifted, gravity_m_s2)) - params) / step
+        covariance = jac @ np.diag([ei_se**2, tc_se**2]) @ jac.T
+        se = np.sqrt(np.diag(covariance))
+        per_impact.append({"impact_speed_m_s": float(v0), "stiffness_n_m": (float(params[0]), float(se[0])),
+                           "damping_n_s_m": (float(params[1]), float(se[1]))})
+    combined = {}
+    for name in ("stiffness_n_m", "damping_n_s_m"):
+        values = np.array([row[name][0] for row in per_impact])
+        errors = np.array([row[name][1] for row in per_impact])
+        weights = 1.0 / errors**2
+        combined[name] = (float(weights @ values / weights.sum()), float(1.0 / np.sqrt(weights.sum())))
+    combined["per_impact"] = per_impact
+    return combined

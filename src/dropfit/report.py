@@ -314,7 +314,42 @@ def _section_contact(fit, impacts):
     resolved = impacts[impacts["contact_resolvable"].astype(bool)]
     rows = [[(_text(row.impact), True), (escape(format_pm(row.t_contact_ms, row.t_contact_se_ms)), True)]
             for row in resolved.itertuples(index=False)]
-    return f"<p>{_text(contact.get('why'))}.</p>\n" + _table(["impact", "contact time (ms)"], rows)
+    table = f"<p>{_text(contact.get('why'))}.</p>\n" + _table(["impact", "contact time (ms)"], rows)
+    model = fit.get("contact_model")
+    if not model:
+        return table + "<p>No contact model fitted: the ball's mass is not known.</p>"
+    image = base64.b64encode(_contact_png(model)).decode("ascii")
+    return table + "<h3>Contact model</h3>\n" + _definitions([
+        ("Model", _text(model["model"])),
+        ("k", escape(_estimate(model["stiffness_n_m"], "N/m"))),
+        ("c", escape(_estimate(model["damping_n_s_m"], "N s/m"))),
+        ("Impacts used", _text(model["n_impacts"])),
+        ("How", _text(model["why"])),
+    ]) + f'\n<img alt="force and penetration of the fitted contact" src="data:image/png;base64,{image}">'
+
+
+def _contact_png(model):
+    """Force–time and penetration–time curves (PNG bytes) of the fitted linear contact at the first
+    resolved impact's speed."""
+    from .contact import LinearContact, simulate_contact
+
+    stiffness, damping = model["stiffness_n_m"]["value"], model["damping_n_s_m"]["value"]
+    result = simulate_contact(LinearContact(stiffness, damping), model["mass_kg"], model["impact_speed_m_s"])
+    fig, force_axis = plt.subplots(figsize=(6.5, 3.0))
+    force_axis.plot(1e3 * result.time_s, result.force_n, color="C3", lw=2, label="contact force F")
+    force_axis.set_xlabel("time after touchdown (ms)")
+    force_axis.set_ylabel("contact force F (N)")
+    force_axis.grid(alpha=0.3)
+    depth_axis = force_axis.twinx()
+    depth_axis.plot(1e3 * result.time_s, 1e3 * result.penetration_m, color="C0", ls="--", label="penetration δ")
+    depth_axis.set_ylabel("penetration δ (mm)")
+    fig.legend(loc="upper right", fontsize=8)
+    force_axis.set_title(f"fitted contact at v_in = {model['impact_speed_m_s']:.2f} m/s", fontsize=9)
+    fig.tight_layout()
+    buffer = io.BytesIO()
+    fig.savefig(buffer, format="png", dpi=110)
+    plt.close(fig)
+    return buffer.getvalue()
 
 
 def _section_impacts(impacts):

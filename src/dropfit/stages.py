@@ -15,6 +15,7 @@ import yaml
 
 from . import __version__
 from .analysis import analyse_bounces
+from .contact import fit_linear_contact
 from .errors import InputError
 from .files import atomic_output, read_json, read_table, sha256_of, write_json, write_text
 from .heightlog import read_trajectory, trajectory_from_log
@@ -42,12 +43,15 @@ def synth(scenarios_path, name, log_path, truth_path, seed=None):
 
 
 def measure(log_path, out_path, sample_id=None, ball_radius_m=None, ball_mass_kg=None, ball_type=None,
-            scale_m_per_px=None, gravity_m_s2=STANDARD_GRAVITY_M_S2):
-    """Height log → trajectory NetCDF (heights in m, up; dropouts flagged)."""
+            scale_m_per_px=None, gravity_m_s2=STANDARD_GRAVITY_M_S2, floor_m=None):
+    """Height log → trajectory NetCDF (heights in m, up; dropouts flagged).
+
+    ``floor_m`` is the height of the floor surface in the log's frame, in m, where it is known.
+    """
     trajectory = trajectory_from_log(
         log_path, scale_m_per_px=scale_m_per_px, gravity_m_s2=gravity_m_s2,
         attrs={"sample_id": sample_id, "ball_radius_m": ball_radius_m, "ball_mass_kg": ball_mass_kg,
-               "ball_type": ball_type, "dropfit_version": __version__},
+               "ball_type": ball_type, "floor_m": floor_m, "dropfit_version": __version__},
     )
     trajectory.attrs["source_sha256"] = sha256_of(log_path)  # after the read: it has checked the file exists
     with atomic_output(out_path) as tmp:
@@ -58,8 +62,13 @@ def analyse(trajectory_path, impacts_path, flights_path, summary_path, drag="aut
             gravity_m_s2=STANDARD_GRAVITY_M_S2):
     """Trajectory → impacts table, flights table and analysis summary (with the e covariance)."""
     trajectory = read_trajectory(trajectory_path)
+    attrs = trajectory.attrs
+    # with the floor and the radius known, the ball touches down where its centre is one radius up
+    contact_height = attrs["floor_m"] + attrs["ball_radius_m"] if "floor_m" in attrs and "ball_radius_m" in attrs \
+        else None
     result = analyse_bounces(trajectory["time"].values, trajectory["y"].values, gravity_m_s2=gravity_m_s2,
-                             drag=drag, source=trajectory.attrs.get("source", str(trajectory_path)))
+                             drag=drag, contact_height_m=contact_height,
+                             source=attrs.get("source", str(trajectory_path)))
     summary = dict(result.summary)
     summary["e_covariance"] = result.e_covariance.tolist()
     summary["trajectory_attrs"] = {key: _plain(value) for key, value in trajectory.attrs.items()}
@@ -85,6 +94,7 @@ def fit(analysis_path, impacts_path, out_path, ball_type=None, itf_drop_height_m
     impacts = read_table(impacts_path)
     attrs = summary.get("trajectory_attrs", {})
     ball_type = ball_type or attrs.get("ball_type")
+    mass = attrs.get("ball_mass_kg")
     constant = constant_restitution(impacts["e"].to_numpy(), np.asarray(summary["e_covariance"]))
     e, e_se = constant["e"]["value"], constant["e"]["se"]
     if constant["dof"] > 0 and constant["p_value"] < 0.01:
@@ -97,7 +107,8 @@ def fit(analysis_path, impacts_path, out_path, ball_type=None, itf_drop_height_m
                            impacts["h_after_se_m"].to_numpy(), summary["rest_time_s"] - summary["drop_apex_time_s"])
     itf = _itf(ball_type, summary, impacts, e, e_se, itf_drop_height_m, itf_rebound_min_m, itf_rebound_max_m,
                itf_drop_height_tolerance_m)
-    resolvable = bool(impacts["contact_resolvable"].any())
+    resolvable_rows = impacts[impacts["contact_resolvable"].astype(bool)]
+    resolvable = not resolvable_rows.empty
     drag = {
         "model": summary["drag_model"],
         "k_per_m": estimate(summary["drag_k_per_m"], summary["drag_k_se_per_m"], "1/m"),
@@ -107,7 +118,7 @@ def fit(analysis_path, impacts_path, out_path, ball_type=None, itf_drop_height_m
         if np.isfinite(summary["bic_quadratic_drag"]) and np.isfinite(summary["bic_no_drag"])
         else "fixed by the --drag option",
     }
-    radius, mass = attrs.get("ball_radius_m"), attrs.get("ball_mass_kg")
+    radius = attrs.get("ball_radius_m")
     if summary["drag_model"] == "none" and radius and mass:
         nominal_k = float(drag_parameter(SPHERE_DRAG_COEFFICIENT, radius, mass))
         drag["nominal_k_per_m"] = nominal_k
@@ -129,12 +140,8 @@ def fit(analysis_path, impacts_path, out_path, ball_type=None, itf_drop_height_m
         "drag": drag,
         "drop_height_m": estimate(summary["drop_height_m"], summary["drop_height_se_m"], "m"),
         "contact_height_m": estimate(summary["contact_height_m"], summary["contact_height_se_m"], "m"),
-        "contact_time": {
-            "resolvable": resolvable,
-            "why": "contact height was estimated where the flights meet, which assumes the contact is "
-                   "instantaneous: the contact time cannot be measured from it" if not resolvable else
-                   "resolved for the impacts marked in the impacts table",
-        },
+        "contact_time": _contact_time(summary, resolvable_rows),
+        "contact_model": _contact_model(resolvable_rows, mass, summary["gravity_m_s2"]),
         "noise_m": summary["noise_m"],
         "theory": theory,
         "itf": itf,
@@ -143,6 +150,38 @@ def fit(analysis_path, impacts_path, out_path, ball_type=None, itf_drop_height_m
                    "gravity_m_s2": summary["gravity_m_s2"]},
     }
     write_json(out_path, result)
+
+
+def _contact_time(summary, resolvable_rows):
+    if not resolvable_rows.empty:
+        return {"resolvable": True, "n_impacts": len(resolvable_rows),
+                "why": "the floor is known, the sampling resolves the contact and each contact time stands "
+                       "well clear of its uncertainty (impacts marked in the impacts table)"}
+    if summary["contact_height_source"] == "given":
+        why = "the contact times are not resolved: shorter than two sample intervals or than five standard errors"
+    else:
+        why = ("the floor height is not known, so the contact height was estimated where the flights meet, "
+               "which assumes an instantaneous contact: give floor_m to measure contact times")
+    return {"resolvable": False, "why": why}
+
+
+def _contact_model(resolvable_rows, mass_kg, gravity_m_s2):
+    """Linear contact k, c from the impacts whose contact time is resolved (None if there are none)."""
+    if resolvable_rows.empty or not mass_kg:
+        return None
+    fitted = fit_linear_contact(mass_kg, resolvable_rows["v_in_m_s"], resolvable_rows["e"], resolvable_rows["e_se"],
+                                1e-3 * resolvable_rows["t_contact_ms"], 1e-3 * resolvable_rows["t_contact_se_ms"],
+                                gravity_m_s2)
+    return {
+        "model": "linear (unilateral Kelvin-Voigt): F = max(0, k delta + c delta_dot)",
+        "stiffness_n_m": estimate(*fitted["stiffness_n_m"], "N/m"),
+        "damping_n_s_m": estimate(*fitted["damping_n_s_m"], "N s/m"),
+        "mass_kg": mass_kg,
+        "impact_speed_m_s": float(resolvable_rows["v_in_m_s"].iloc[0]),
+        "n_impacts": len(resolvable_rows),
+        "why": "each impact's e and contact time inverted exactly, weighted by inverse variance; errors of e and "
+               "contact time treated as independent",
+    }
 
 
 def _itf(ball_type, summary, impacts, e, e_se, drop_height_itf, rebound_min, rebound_max, tolerance):

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+from .contact import HuntCrossleyContact, LinearContact, simulate_contact
 from .physics import (STANDARD_GRAVITY_M_S2, apex_rise, drag_parameter, flight_height, restitution,
                       speed_below_apex, time_from_apex, total_bouncing_time)
 
@@ -31,13 +32,15 @@ class DropTruth:
     flights : pandas.DataFrame
         ``t_apex_s``, ``y_apex_m`` (centre height above the floor) and ``t_start_s`` of each flight.
     impacts : pandas.DataFrame
-        ``t_s``, ``v_in_m_s``, ``v_out_m_s``, ``e``, ``rebound_height_m`` (rise of the centre after
-        the impact, m) of each impact.
+        ``t_s`` (touchdown), ``t_liftoff_s``, ``v_in_m_s``, ``v_out_m_s``, ``e``, ``rebound_height_m``
+        (rise of the centre after the impact, m) of each impact.
     drag_k_per_m : float
         Quadratic-drag parameter in 1/m.
     radius_m, release_time_s, drop_height_m, rest_time_s, gravity_m_s2 : float
         Ball radius (m), release time (s), drop height of the ball's bottom (m), time at which the
         ball comes to rest (s) and gravity (m/s²).
+    contacts : list of (float, dropfit.contact.ContactResult)
+        Touchdown time (s) and contact history of each impact, if a contact model was used.
     """
 
     flights: pd.DataFrame
@@ -48,20 +51,24 @@ class DropTruth:
     drop_height_m: float
     rest_time_s: float
     gravity_m_s2: float
+    contacts: list = None
 
     def height(self, time_s):
-        """Centre height in m above the floor at ``time_s`` (s): held, flying, or at rest."""
+        """Centre height in m above the floor at ``time_s`` (s): held, flying, pressed in, or at rest."""
         t = np.asarray(time_s, dtype=float)
         i = np.clip(np.searchsorted(self.flights["t_start_s"].to_numpy(), t, side="right") - 1, 0, None)
         t_apex = self.flights["t_apex_s"].to_numpy()[i]
         y_apex = self.flights["y_apex_m"].to_numpy()[i]
         y = flight_height(t, t_apex, y_apex, self.drag_k_per_m, self.gravity_m_s2)
-        y = np.where(t < self.release_time_s, y_apex, y)
-        return np.where(t >= self.rest_time_s, self.radius_m, np.maximum(y, self.radius_m))
+        y = np.where(t < self.release_time_s, y_apex, np.maximum(y, self.radius_m))
+        for touchdown, contact in self.contacts or []:
+            inside = (t >= touchdown) & (t <= touchdown + contact.time_s[-1])
+            y[inside] = self.radius_m - np.interp(t[inside] - touchdown, contact.time_s, contact.penetration_m)
+        return np.where(t >= self.rest_time_s, self.radius_m, y)
 
 
-def simulate_drop(drop_height_m, radius_m, restitution_model, mass_kg=None, drag_coefficient=0.0,
-                  gravity_m_s2=STANDARD_GRAVITY_M_S2, release_time_s=0.3, max_time_s=np.inf):
+def simulate_drop(drop_height_m, radius_m, restitution_model=None, mass_kg=None, drag_coefficient=0.0,
+                  gravity_m_s2=STANDARD_GRAVITY_M_S2, release_time_s=0.3, max_time_s=np.inf, contact_model=None):
     """Bounce sequence of a ball dropped from rest onto a rigid floor.
 
     Parameters
@@ -70,10 +77,11 @@ def simulate_drop(drop_height_m, radius_m, restitution_model, mass_kg=None, drag
         Height of the ball's bottom above the floor at release, in m (the ITF drop is 2.54 m).
     radius_m : float
         Ball radius in m.
-    restitution_model : dict
-        e as a function of impact speed, see :func:`dropfit.physics.restitution`.
+    restitution_model : dict, optional
+        e as a function of impact speed, see :func:`dropfit.physics.restitution`; for
+        instantaneous impacts (no ``contact_model``).
     mass_kg : float, optional
-        Ball mass in kg; needed only with drag.
+        Ball mass in kg; needed with drag or a contact model.
     drag_coefficient : float
         C_d of quadratic air drag (0 = none).
     gravity_m_s2 : float
@@ -82,6 +90,9 @@ def simulate_drop(drop_height_m, radius_m, restitution_model, mass_kg=None, drag
         Time in s at which the ball leaves the hand.
     max_time_s : float
         Stop following the bounces after this time in s.
+    contact_model : dropfit.contact.LinearContact or dropfit.contact.HuntCrossleyContact, optional
+        Resolve every impact through this contact model: the ball presses into the floor for the
+        contact time and e follows from the model (``restitution_model`` is then not used).
 
     Returns
     -------
@@ -90,30 +101,37 @@ def simulate_drop(drop_height_m, radius_m, restitution_model, mass_kg=None, drag
     k = drag_parameter(drag_coefficient, radius_m, mass_kg) if drag_coefficient else 0.0
     g = gravity_m_s2
     flights = [(0.0, release_time_s, radius_m + drop_height_m)]
-    impacts = []
+    impacts, contacts = [], []
     t_apex, y_apex = release_time_s, radius_m + drop_height_m
     while True:
         fall = y_apex - radius_m
         t_impact = t_apex + float(time_from_apex(fall, k, g))
         v_in = float(speed_below_apex(fall, k, g))
-        e = float(restitution(v_in, restitution_model))
+        if contact_model is None:
+            e, contact_time = float(restitution(v_in, restitution_model)), 0.0
+        else:
+            contact = simulate_contact(contact_model, mass_kg, v_in, g, n_points=2000)
+            e, contact_time = contact.e, contact.contact_time_s
+            contacts.append((t_impact, contact))
         v_out = e * v_in
         rise = float(apex_rise(v_out, k, g))
-        impacts.append((t_impact, v_in, v_out, e, rise))
+        t_liftoff = t_impact + contact_time
+        impacts.append((t_impact, t_liftoff, v_in, v_out, e, rise))
         if rise < REST_RISE_M or t_impact > max_time_s:
             break
-        t_apex = t_impact + float(time_from_apex(rise, k, g, rising=True))
+        t_apex = t_liftoff + float(time_from_apex(rise, k, g, rising=True))
         y_apex = radius_m + rise
-        flights.append((t_impact, t_apex, y_apex))
+        flights.append((t_liftoff, t_apex, y_apex))
     return DropTruth(
         flights=pd.DataFrame(flights, columns=["t_start_s", "t_apex_s", "y_apex_m"]),
-        impacts=pd.DataFrame(impacts, columns=["t_s", "v_in_m_s", "v_out_m_s", "e", "rebound_height_m"]),
+        impacts=pd.DataFrame(impacts, columns=["t_s", "t_liftoff_s", "v_in_m_s", "v_out_m_s", "e", "rebound_height_m"]),
         drag_k_per_m=k,
         radius_m=radius_m,
         release_time_s=release_time_s,
         drop_height_m=drop_height_m,
-        rest_time_s=impacts[-1][0],
+        rest_time_s=impacts[-1][1],
         gravity_m_s2=g,
+        contacts=contacts,
     )
 
 
@@ -180,6 +198,8 @@ def ground_truth_record(truth, offset_m):
             {
                 "impact": i + 1,
                 "t_s": row.t_s,
+                "t_liftoff_s": row.t_liftoff_s,
+                "contact_time_s": row.t_liftoff_s - row.t_s,
                 "v_in_m_s": row.v_in_m_s,
                 "v_out_m_s": row.v_out_m_s,
                 "e": row.e,
@@ -188,6 +208,15 @@ def ground_truth_record(truth, offset_m):
             for i, row in enumerate(impacts.itertuples())
         ],
     }
+
+
+def _contact_model(spec):
+    """Contact model from a scenario's ``contact`` entry (None for instantaneous impacts)."""
+    if spec is None:
+        return None
+    if spec["model"] == "linear":
+        return LinearContact(spec["stiffness_n_m"], spec["damping_n_s_m"])
+    return HuntCrossleyContact(spec["stiffness"], spec.get("exponent", 1.5), spec["damping_s_m"])
 
 
 def synthesize(scenario, seed):
@@ -203,7 +232,8 @@ def synthesize(scenario, seed):
         drop_height_m=scenario["drop_height_m"],
         radius_m=ball["radius_m"],
         mass_kg=ball["mass_kg"],
-        restitution_model=scenario["restitution"],
+        restitution_model=scenario.get("restitution"),
+        contact_model=_contact_model(scenario.get("contact")),
         drag_coefficient=scenario.get("drag_coefficient", 0.0),
         gravity_m_s2=scenario.get("gravity_m_s2", STANDARD_GRAVITY_M_S2),
         release_time_s=scenario.get("release_time_s", 0.3),
