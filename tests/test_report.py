@@ -21,7 +21,7 @@ scenarios:
     sensor: {sample_rate_hz: 100, noise_m: 0.001, offset_m: 0.12, dropout_fraction: 0.01, unit: m}
 """
 
-SECTIONS = ["Recording", "Result", "ITF verdict", "Drag", "Theory checks", "Contact time", "Impacts table", "Figure"]
+SECTIONS = ["Recording", "Result", "e against impact speed", "ITF verdict", "Drag", "Theory checks", "Contact time", "Impacts table", "Figure"]
 
 
 @pytest.fixture(scope="module")

@@ -258,6 +258,25 @@ def _section_result(fit):
     ])
 
 
+_PARAMETER_LABELS = {"e0": ("e₀", ""), "slope_s_m": ("slope a", "s/m"), "coefficient": ("b", "(s/m)^(1/5)")}
+_MODEL_LAWS = {"constant": "e = e₀", "linear": "e = e₀ − a v", "power": "1 − e = b v^(1/5)"}
+
+
+def _section_speed(fit):
+    speed = fit.get("restitution_vs_speed")
+    if not speed:
+        return "<p>Fewer than three impacts: e against speed not fitted.</p>"
+    rows = []
+    for name, model in speed["models"].items():
+        parameters = "; ".join(f"{_PARAMETER_LABELS[key][0]} = {_estimate(value, _PARAMETER_LABELS[key][1])}"
+                               for key, value in model["parameters"].items())
+        rows.append([(_text(("▶ " if name == speed["chosen"] else "") + _MODEL_LAWS[name]), False),
+                     (escape(parameters), False), (_num(model["chi2"], ".1f"), True), (_text(model["dof"]), True),
+                     (_num(model["bic"], ".1f"), True)])
+    return (f"<p>Chosen: <b>{_text(_MODEL_LAWS[speed['chosen']])}</b>. {_text(speed['why'])}</p>\n"
+            + _table(["model", "parameters", "χ² (1)", "dof", "BIC (1)"], rows))
+
+
 def _section_itf(fit):
     itf = fit["itf"]
     verdict = itf["verdict"]
@@ -389,6 +408,7 @@ def recording_report_html(trajectory, flights, impacts, fit, png):
     sections = [
         ("Recording", _section_recording(fit)),
         ("Result", _section_result(fit)),
+        ("e against impact speed", _section_speed(fit)),
         ("ITF verdict", _section_itf(fit)),
         ("Drag", _section_drag(fit)),
         ("Theory checks", _section_theory(fit)),

@@ -22,6 +22,7 @@ from .heightlog import read_trajectory, trajectory_from_log
 from .physics import SPHERE_DRAG_COEFFICIENT, STANDARD_GRAVITY_M_S2, drag_parameter
 from .restitution import (ITF_DROP_HEIGHT_M, ITF_REBOUND_MAX_M, ITF_REBOUND_MIN_M, constant_restitution,
                           drag_shift, estimate, itf_rebound, itf_verdict, theory_checks)
+from .speed_dependence import fit_speed_dependence
 from .synth import synthesize
 
 
@@ -137,6 +138,9 @@ def fit(analysis_path, impacts_path, out_path, ball_type=None, itf_drop_height_m
         "ball": {"type": ball_type, "radius_m": attrs.get("ball_radius_m"), "mass_kg": attrs.get("ball_mass_kg")},
         "calibration": attrs.get("calibration"),
         "restitution": {"model": "constant", "why": why, **constant},
+        "restitution_vs_speed": fit_speed_dependence(impacts["v_in_m_s"].to_numpy(), impacts["e"].to_numpy(),
+                                                     np.asarray(summary["e_covariance"]))
+        if len(impacts) >= 3 else None,
         "drag": drag,
         "drop_height_m": estimate(summary["drop_height_m"], summary["drop_height_se_m"], "m"),
         "contact_height_m": estimate(summary["contact_height_m"], summary["contact_height_se_m"], "m"),
