@@ -24,7 +24,7 @@ from .physics import STANDARD_GRAVITY_M_S2
 #: Relative tolerance of the nonlinear integrator (e comes out to better than 1e-10).
 ODE_RTOL = 1e-12
 _MAX_PHASES = 16
-_SCAN_POINTS = 512
+_SCAN_POINTS = 128
 
 
 @dataclass(frozen=True)
@@ -171,6 +171,56 @@ class _LinearPhase:
         return brentq(self.force, grid[j - 1], grid[j], xtol=1e-15, rtol=4 * np.finfo(float).eps)
 
 
+def _linear_events(k, c, m, g, v0):
+    """The event loop of the linear contact: pushing phases and free phases until lift-off.
+
+    Returns
+    -------
+    (list, bool, float, float)
+        Segments ``("push", start_s, duration_s, _LinearPhase)`` or ``("free", start_s, duration_s,
+        (δ m, δ̇ m/s))``; whether the ball lifted off; the time of lift-off (or of the last event)
+        in s; and δ̇ then, in m/s.
+    """
+    t0, delta, rate = 0.0, 0.0, v0
+    segments = []
+    for _ in range(_MAX_PHASES):
+        phase = _LinearPhase(k, c, m, g, delta, rate)
+        duration = phase.force_zero()
+        if duration is None:  # the contact never lets go: the ball comes to rest on the floor
+            segments.append(("push", t0, phase.scan_s, phase))
+            return segments, False, t0, 0.0
+        segments.append(("push", t0, duration, phase))
+        t0 += duration
+        delta, rate = (float(x) for x in phase.state(duration))
+        # free phase: δ = δ1 + r1 τ + g τ²/2 until lift-off (δ = 0) or re-engagement (kδ + cδ̇ > 0)
+        discriminant = rate**2 - 2.0 * g * delta
+        # smaller root of δ1 + r1 τ + g τ²/2 = 0, in the form that stays finite for g = 0
+        liftoff = 2.0 * delta / (-rate + np.sqrt(discriminant)) if discriminant >= 0 and rate < 0 else np.inf
+        slope = k * rate + c * g  # dF/dτ at the start of the free phase, F(τ) = slope τ + k g τ²/2
+        if slope >= 0:
+            reengage = 0.0
+        else:
+            reengage = -2.0 * slope / (k * g) if g > 0 else np.inf
+        free = min(liftoff, reengage)
+        if free > 0:
+            segments.append(("free", t0, free, (delta, rate)))
+        t0 += free
+        delta, rate = delta + rate * free + 0.5 * g * free**2, rate + g * free
+        if liftoff <= reengage:
+            return segments, True, t0, rate
+    return segments, False, t0, 0.0
+
+
+def linear_restitution(model, mass_kg, impact_speed_m_s, gravity_m_s2=STANDARD_GRAVITY_M_S2):
+    """e (dimensionless) and contact time (s) of the linear contact, from its events alone (fast path).
+
+    Parameters are those of :func:`simulate_linear_contact`.
+    """
+    v0 = float(impact_speed_m_s)
+    _, lifted, t_end, rate = _linear_events(model.stiffness_n_m, model.damping_n_s_m, mass_kg, gravity_m_s2, v0)
+    return (-rate / v0, t_end) if lifted else (0.0, np.inf)
+
+
 def simulate_linear_contact(model, mass_kg, impact_speed_m_s, gravity_m_s2=STANDARD_GRAVITY_M_S2, n_points=400):
     """Impact of a ball on the unilateral linear contact, in closed form between events.
 
@@ -192,52 +242,28 @@ def simulate_linear_contact(model, mass_kg, impact_speed_m_s, gravity_m_s2=STAND
     """
     k, c, m, g = model.stiffness_n_m, model.damping_n_s_m, mass_kg, gravity_m_s2
     v0 = float(impact_speed_m_s)
-    t0, delta, rate = 0.0, 0.0, v0
-    pieces, pushing, work = [], [], 0.0
-    lifted = False
-    for _ in range(_MAX_PHASES):
-        phase = _LinearPhase(k, c, m, g, delta, rate)
-        duration = phase.force_zero()
-        if duration is None:  # the contact never lets go: the ball comes to rest on the floor
-            tau = np.linspace(0.0, phase.scan_s, n_points)
-            pieces.append((t0 + tau, *phase.state(tau), phase.force(tau)))
-            break
+    segments, lifted, t_end, rate = _linear_events(k, c, m, g, v0)
+    pieces, work = [], 0.0
+    for kind, start, duration, payload in segments:
         tau = np.linspace(0.0, duration, n_points)
-        pieces.append((t0 + tau, *phase.state(tau), np.maximum(phase.force(tau), 0.0)))
-        pushing.append((t0, duration, phase))
-        work += _integrate(lambda s: -phase.force(s) * phase.state(s)[1], duration)
-        t0 += duration
-        delta, rate = (float(x) for x in phase.state(duration))
-        # free phase: δ = δ1 + r1 τ + g τ²/2 until lift-off (δ = 0) or re-engagement (kδ + cδ̇ > 0)
-        discriminant = rate**2 - 2.0 * g * delta
-        # smaller root of δ1 + r1 τ + g τ²/2 = 0, in the form that stays finite for g = 0
-        liftoff = 2.0 * delta / (-rate + np.sqrt(discriminant)) if discriminant >= 0 and rate < 0 else np.inf
-        slope = k * rate + c * g  # dF/dτ at the start of the free phase, F(τ) = slope τ + k g τ²/2
-        if slope >= 0:
-            reengage = 0.0
+        if kind == "push":
+            pieces.append((start + tau, *payload.state(tau), np.maximum(payload.force(tau), 0.0)))
+            work += _integrate(lambda s, phase=payload: -phase.force(s) * phase.state(s)[1], duration)
         else:
-            reengage = -2.0 * slope / (k * g) if g > 0 else np.inf
-        free = min(liftoff, reengage)
-        if np.isfinite(free) and free > 0:
-            tau = np.linspace(0.0, free, n_points)
-            pieces.append((t0 + tau, delta + rate * tau + 0.5 * g * tau**2, rate + g * tau, np.zeros_like(tau)))
-        t0 += free
-        delta, rate = delta + rate * free + 0.5 * g * free**2, rate + g * free
-        if liftoff <= reengage:
-            lifted = True
-            delta = 0.0
-            break
+            delta, speed = payload
+            pieces.append((start + tau, delta + speed * tau + 0.5 * g * tau**2, speed + g * tau, np.zeros_like(tau)))
     time, penetration, velocity, force = (np.concatenate(parts) for parts in zip(*pieces))
     v_out = -rate if lifted else 0.0
-    # the peak lies in the phase whose sampled force is largest: refine it on that phase's closed form
+    # the peak lies in the pushing phase whose sampled force is largest: refine it on its closed form
+    pushing = [(start, duration, phase) for kind, start, duration, phase in segments if kind == "push"]
     start, duration, phase = max(pushing, key=lambda item: np.max(item[2].force(np.linspace(0, item[1], n_points))))
     grid = np.linspace(0.0, duration, n_points)
     peak_time, peak_force = _refine_peak(lambda s: float(phase.force(s)), grid, int(np.argmax(phase.force(grid))))
-    peak_time += start
     return ContactResult(
         time_s=time, penetration_m=penetration, rate_m_s=velocity, force_n=force,
-        e=v_out / v0, contact_time_s=t0 if lifted else np.inf, peak_force_n=peak_force, peak_force_time_s=peak_time,
-        touchdown_force_n=c * v0, kinetic_energy_change_j=0.5 * m * (v_out**2 - v0**2), contact_work_j=work,
+        e=v_out / v0, contact_time_s=t_end if lifted else np.inf, peak_force_n=peak_force,
+        peak_force_time_s=start + peak_time, touchdown_force_n=c * v0,
+        kinetic_energy_change_j=0.5 * m * (v_out**2 - v0**2), contact_work_j=work,
     )
 
 
@@ -322,16 +348,21 @@ def damping_ratio(stiffness_n_m, damping_n_s_m, mass_kg):
 def calibrate_damping(mass_kg, stiffness_n_m, impact_speed_m_s, target_e, gravity_m_s2=STANDARD_GRAVITY_M_S2):
     """Damping c (N·s/m) of the linear contact that gives ``target_e`` at ``impact_speed_m_s`` (m/s).
 
-    Root finding (brentq) on the closed-form e(c), to machine precision.
+    Root finding (brentq) on the closed-form e(c), to machine precision, bracketed around the
+    damping that linear vibration theory gives for ``target_e``.
     """
     def excess(c):
-        return simulate_linear_contact(LinearContact(stiffness_n_m, c), mass_kg, impact_speed_m_s, gravity_m_s2,
-                                       n_points=3).e - target_e
+        return linear_restitution(LinearContact(stiffness_n_m, c), mass_kg, impact_speed_m_s, gravity_m_s2)[0] - target_e
 
-    high = 2.0 * np.sqrt(stiffness_n_m * mass_kg)
+    critical = 2.0 * np.sqrt(stiffness_n_m * mass_kg)
+    log_e = np.log(target_e)
+    guess = critical * -log_e / np.sqrt(np.pi**2 + log_e**2)
+    low, high = 0.5 * guess, 2.0 * guess
+    while excess(low) < 0 and low > 1e-9 * critical:
+        low *= 0.5
     while excess(high) > 0:
         high *= 2.0
-    return brentq(excess, 0.0, high, xtol=1e-14, rtol=4 * np.finfo(float).eps)
+    return brentq(excess, low, high, xtol=1e-14, rtol=4 * np.finfo(float).eps)
 
 
 def linear_from_measurements(mass_kg, impact_speed_m_s, e, contact_time_s, gravity_m_s2=STANDARD_GRAVITY_M_S2):
@@ -348,8 +379,8 @@ def linear_from_measurements(mass_kg, impact_speed_m_s, e, contact_time_s, gravi
 
     def mismatch(log_params):
         k, c = np.exp(log_params)
-        result = simulate_linear_contact(LinearContact(k, c), mass_kg, impact_speed_m_s, gravity_m_s2, n_points=3)
-        return [result.e - e, result.contact_time_s / contact_time_s - 1.0]
+        model_e, model_time = linear_restitution(LinearContact(k, c), mass_kg, impact_speed_m_s, gravity_m_s2)
+        return [model_e - e, model_time / contact_time_s - 1.0]
 
     solution = least_squares(mismatch, start, xtol=1e-15, ftol=1e-15, gtol=1e-15)
     return tuple(float(x) for x in np.exp(solution.x))
