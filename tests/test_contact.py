@@ -96,3 +96,13 @@ def test_inverse_hunt_crossley_recovers_its_parameters():
     stiffness, chi = hunt_crossley_from_measurements(MASS_KG, V0, result.e, result.contact_time_s, 1.5, G)
     assert stiffness == pytest.approx(2e6, rel=1e-6)
     assert chi == pytest.approx(0.08, rel=1e-6)
+
+
+def test_integrator_gives_eight_significant_digits():
+    """A Hunt–Crossley contact with n = 1 and χ = 0 is the undamped linear spring: the integrator's
+    e and contact time agree with the closed form to 1e-9 (gravity included)."""
+    integrated = simulate_contact(HuntCrossleyContact(STIFFNESS_N_M, 1.0, 0.0), MASS_KG, V0, G)
+    exact = simulate_contact(LinearContact(STIFFNESS_N_M, 0.0), MASS_KG, V0, G)
+    assert integrated.e == pytest.approx(exact.e, rel=1e-9)
+    assert integrated.contact_time_s == pytest.approx(exact.contact_time_s, rel=1e-9)
+    assert integrated.peak_force_n == pytest.approx(exact.peak_force_n, rel=1e-8)
