@@ -38,7 +38,7 @@ error_contact_time_s; raw errors, so 0 means exact to machine precision) and
 ``benchmarks/contact_calibration.png`` (wall time against the two errors, log-log; errors that are
 zero are drawn at the machine-epsilon floor).
 
-Run (about 3 minutes; deterministic, nothing random):
+Run (about 45 s; deterministic, nothing random):
 
     python benchmarks/contact_calibration.py
 """

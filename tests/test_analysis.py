@@ -168,3 +168,23 @@ def test_contact_is_not_resolvable_at_100_hz():
     log = sensor_log(truth, 12, offset_m=0.0)
     analysis = analyse_bounces(log["time_s"], log["y_m"], contact_height_m=0.0335)
     assert not analysis.impacts["contact_resolvable"].any()
+
+
+@pytest.mark.parametrize("time_factor, height_factor", [(1000.0, 1.0), (1.0, 100.0), (1.0, 0.001)])
+def test_wrong_units_are_named_not_fitted(tennis_truth, time_factor, height_factor):
+    """Time in ms or heights in cm or km under SI headers: the flights do not fall with g, and the error says so."""
+    from dropfit.errors import InputError
+
+    log = sensor_log(tennis_truth, 0)
+    with pytest.raises(InputError, match="check the units"):
+        analyse_bounces(time_factor * log["time_s"], height_factor * log["y_m"], source="units.csv")
+
+
+def test_a_floor_given_too_low_is_refused(tennis_truth):
+    """The flights meet above a contact height given 10 cm too low: the error names floor_m."""
+    from dropfit.errors import InputError
+
+    log = sensor_log(tennis_truth, 0, offset_m=0.2)
+    true_contact = tennis_truth.radius_m + 0.2  # m
+    with pytest.raises(InputError, match="floor_m"):
+        analyse_bounces(log["time_s"], log["y_m"], contact_height_m=true_contact - 0.1, source="floor.csv")

@@ -171,6 +171,7 @@ BAD_LOGS = {
     "not_a_number": ("time_s,y_m\n0.00,1.0\n0.01,abc\n0.02,0.98\n", ["y_m", "not a number", "abc"]),
     "repeated_time": ("time_s,y_m\n0.00,1.0\n0.01,0.99\n0.01,0.99\n0.02,0.98\n", ["does not increase"]),
     "all_nan": ("time_s,y_m\n0.00,\n0.01,\n0.02,nan\n", ["y_m", "no valid value"]),
+    "infinite": ("time_s,y_m\n0.00,1.0\n0.01,inf\n0.02,0.98\n", ["y_m", "infinite"]),
 }
 
 
@@ -217,3 +218,11 @@ def test_no_bounce_raises_input_error_naming_the_source(tmp_path, kind):
     with pytest.raises(InputError) as caught:  # ... but nothing to analyse
         analyse_bounces(trajectory["time"].values, trajectory["y"].values, source=trajectory.attrs["source"])
     assert_one_line_about(str(caught.value), path, [])
+
+
+def test_px_log_with_a_scale_of_the_wrong_sign_is_named(tennis_truth, tmp_path):
+    """Image rows (down) with a positive scale: the message says the axis points down."""
+    path = write_log(tmp_path / "rows.csv", px_log(tennis_truth))
+    with pytest.raises(InputError) as caught:
+        trajectory_from_log(path, scale_m_per_px=1.0 / PX_PER_M)
+    assert_one_line_about(str(caught.value), path, ["points down", "negative scale"])

@@ -359,6 +359,7 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
         raise InputError(f"{source}: no bounce with at least {MIN_SAMPLES_PER_FLIGHT} samples in the flights "
                          f"before and after it")
     bounds = bounds[:n_flights]
+    _check_free_fall(t, y, bounds, g, source)
     starts = []
     for lo, hi in bounds:
         inside = (t > lo) & (t < hi)
@@ -378,7 +379,32 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
         bic[False] = _bic(rival[1])
         if bic[False] <= bic[True]:
             fit = _refine(t, y, final_bounds, False, g, rival[1].x, contact_height_m, noise) or fit
-    return _report(fit, bic, t_all, y_all, noise, g, release_time=float(t[release]))
+    return _report(fit, bic, t_all, y_all, noise, g, float(t[release]), source)
+
+
+#: The flights' own curvature may differ from g by this fraction (drag changes it by a few %).
+FREE_FALL_TOLERANCE = 0.15
+
+
+def _check_free_fall(t, y, bounds, g, source):
+    """Raise InputError unless the flights, fitted with a free curvature, fall with about g.
+
+    Wrong units (time in ms under a ``time_s`` header, heights in cm under ``y_m``) change the
+    apparent acceleration by orders of magnitude; catching it here names the cause.
+    """
+    rows, targets = [], []
+    pieces = [(t > lo) & (t < hi) for lo, hi in bounds]
+    for j, inside in enumerate(pieces):
+        tt = t[inside] - t[inside][0]
+        block = np.zeros((tt.size, 2 * len(pieces) + 1))
+        block[:, 2 * j], block[:, 2 * j + 1], block[:, -1] = 1.0, tt, -0.5 * tt**2
+        rows.append(block)
+        targets.append(y[inside])
+    coef, *_ = np.linalg.lstsq(np.vstack(rows), np.concatenate(targets), rcond=None)
+    acceleration = coef[-1]
+    if not abs(acceleration / g - 1.0) < FREE_FALL_TOLERANCE:
+        raise InputError(f"{source}: the flights fall with {acceleration:.4g} m/s², not g = {g:g} m/s²: check the "
+                         f"units of time and height in the column names (or the scale of a px log)")
 
 
 def _refine(t, y, bounds, with_drag, g, theta0, contact_height_m, noise):
@@ -452,7 +478,7 @@ def _unpack_quantities(vector, n_impacts):
     return values
 
 
-def _report(fit, bic, t_all, y_all, noise, g, release_time):
+def _report(fit, bic, t_all, y_all, noise, g, release_time, source):
     model, result, counts, quantities, bounds = fit
     theta = result.x
     cov_theta = _covariance(result)
@@ -494,6 +520,9 @@ def _report(fit, bic, t_all, y_all, noise, g, release_time):
     lo = 1 + _IMPACT_COLUMNS.index("t_liftoff_s") * n
     contact_jac = jac[lo: lo + n] - jac[td: td + n]
     contact_se_ms = 1e3 * np.sqrt(np.clip(np.einsum("ij,jk,ik->i", contact_jac, cov_theta, contact_jac), 0, None))
+    if quantities.given_contact_height is not None and np.any(contact_ms < -3 * contact_se_ms - 1e-6):
+        raise InputError(f"{source}: the flights meet above the given contact height (floor + radius): "
+                         f"the floor is lower than that; check floor_m and the ball radius")
     impacts["t_contact_ms"] = contact_ms
     impacts["t_contact_se_ms"] = contact_se_ms
     sample_interval = float(np.median(np.diff(t_all)))

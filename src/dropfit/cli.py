@@ -44,7 +44,7 @@ def _parser():
     measure.add_argument("--ball-type", help="tennis, steel, rubber, table_tennis or other")
     measure.add_argument("--scale-m-per-px", type=float,
                          help="m per px for logs in px (negative if the axis points down); default: from gravity")
-    measure.add_argument("--gravity-m-s2", type=float, default=STANDARD_GRAVITY_M_S2, help="gravity in m/s²")
+    measure.add_argument("--gravity-m-s2", type=_positive, default=STANDARD_GRAVITY_M_S2, help="gravity in m/s²")
     measure.add_argument("--floor-m", type=float,
                          help="height of the floor in the log's frame, in m (makes contact times measurable)")
 
@@ -55,7 +55,7 @@ def _parser():
     analyse.add_argument("--summary", required=True)
     analyse.add_argument("--drag", choices=["auto", "off", "on"], default="auto",
                          help="quadratic air drag: chosen by BIC (auto), never or always")
-    analyse.add_argument("--gravity-m-s2", type=float, default=STANDARD_GRAVITY_M_S2, help="gravity in m/s²")
+    analyse.add_argument("--gravity-m-s2", type=_positive, default=STANDARD_GRAVITY_M_S2, help="gravity in m/s²")
 
     fit = stage("fit", "impacts → fit result (JSON): e, theory checks, ITF verdict")
     fit.add_argument("--analysis", required=True)
@@ -78,8 +78,16 @@ def _parser():
     return parser
 
 
+def _positive(text):
+    """argparse type: a float > 0."""
+    value = float(text)
+    if not value > 0:
+        raise argparse.ArgumentTypeError(f"must be positive, got {text}")
+    return value
+
+
 def _run(args):
-    """Call the stage; return the output paths it writes (for failure records)."""
+    """Call the stage with the parsed arguments."""
     if args.command == "synth":
         stages.synth(args.scenarios, args.name, args.log, args.truth, args.seed)
     elif args.command == "measure":

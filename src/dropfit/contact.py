@@ -391,10 +391,10 @@ def hunt_crossley_from_measurements(mass_kg, impact_speed_m_s, e, contact_time_s
     """K (N/mⁿ) and χ (s/m) of a Hunt–Crossley contact that reproduce a measured e and contact time.
 
     The start comes from the Hunt–Crossley damping form and the Hertz contact time of an elastic
-    impact, t_c ≈ 3.2145 (m²/(K² v₀))^{1/5} for n = 3/2 (scaled for other n by a first solve).
+    impact, t_c ≈ 3.218 (m²/(K² v₀))^{1/5} for n = 3/2.
     """
     chi0 = DAMPING_FORMS["hunt-crossley"](e, impact_speed_m_s)
-    k0 = (3.2145 / contact_time_s) ** 2.5 * mass_kg / np.sqrt(impact_speed_m_s)
+    k0 = (3.218 / contact_time_s) ** 2.5 * mass_kg / np.sqrt(impact_speed_m_s)
 
     def mismatch(log_params):
         stiffness, chi = np.exp(log_params)

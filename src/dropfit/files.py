@@ -62,7 +62,10 @@ def _nan_to_none(value):
 
 def read_json(path):
     """Read a JSON file written by a dropfit stage; raise :class:`InputError` for a failure record."""
-    data = json.loads(Path(path).read_text(encoding="utf-8"))
+    try:
+        data = json.loads(Path(path).read_text(encoding="utf-8"))
+    except (OSError, ValueError) as error:
+        raise InputError(f"{path}: cannot read this JSON file ({type(error).__name__}: {error})") from None
     if isinstance(data, dict) and data.get("status") == FAILED:
         raise InputError(data["error"])
     return data
@@ -126,7 +129,11 @@ def read_table(path):
     """Read a CSV table written by a dropfit stage; raise :class:`InputError` for a failure record."""
     import pandas as pd
 
-    message = csv_failure_message(path)
+    try:
+        message = csv_failure_message(path)
+        table = pd.read_csv(path, comment="#") if message is None else None
+    except (OSError, ValueError) as error:
+        raise InputError(f"{path}: cannot read this table ({type(error).__name__})") from None
     if message is not None:
         raise InputError(message)
-    return pd.read_csv(path, comment="#")
+    return table

@@ -25,6 +25,8 @@ from .physics import STANDARD_GRAVITY_M_S2
 TIME_UNITS_S = {"s": 1.0, "ms": 1e-3}
 LENGTH_UNITS_M = {"m": 1.0, "cm": 1e-2, "mm": 1e-3}
 QUALITY_OK, QUALITY_DROPOUT = 0, 1
+#: A scale from gravity less precise than this (relative standard error) is refused.
+MAX_GRAVITY_SCALE_RELATIVE_SE = 0.01
 
 
 def _column_unit(columns, quantity, units, path):
@@ -82,6 +84,9 @@ def read_height_log(path):
         row = int(np.flatnonzero(steps <= 0)[0])
         raise InputError(f"{path}: time does not increase at data row {row + 2} "
                          f"({time[row]:g} s then {time[row + 1]:g} s); sort the log or remove repeated rows")
+    if np.any(np.isinf(height)):
+        row = int(np.flatnonzero(np.isinf(height))[0])
+        raise InputError(f"{path}: column {height_column} is infinite in data row {row + 1}")
     if not np.any(np.isfinite(height)):
         raise InputError(f"{path}: column {height_column} has no valid value (all empty or NaN)")
     return time, height, height_unit
@@ -148,8 +153,9 @@ def scale_from_gravity(time_s, height_px, gravity_m_s2=STANDARD_GRAVITY_M_S2, so
 
     valid = np.isfinite(height_px)
     t, y = time_s[valid], height_px[valid]
-    # flip to "up" for segmentation if the second differences say the axis points down
-    sign = -1.0 if np.median(np.diff(y, 2)) > 0 else 1.0
+    # a dropped ball starts high and spends most of the log lower down: if the first sample lies
+    # below the median in pixel units, the axis points down (image rows)
+    sign = -1.0 if y[0] < np.median(y) else 1.0
     up = sign * y
     noise = max(estimate_noise(up), 1e-9 * float(np.ptp(up)))
     release = find_release(up, noise)
@@ -175,7 +181,11 @@ def scale_from_gravity(time_s, height_px, gravity_m_s2=STANDARD_GRAVITY_M_S2, so
     if curvature >= 0:
         raise InputError(f"{source}: cannot calibrate pixels from gravity: the flights do not curve downwards")
     scale = gravity_m_s2 / (-2.0 * curvature)
-    return sign * scale, scale * curvature_se / -curvature
+    relative_se = curvature_se / -curvature
+    if relative_se > MAX_GRAVITY_SCALE_RELATIVE_SE:
+        raise InputError(f"{source}: cannot calibrate pixels from gravity: the flights give the scale only to "
+                         f"{100 * relative_se:.1f} %; give scale_m_per_px")
+    return sign * scale, scale * relative_se
 
 
 def trajectory_from_log(path, scale_m_per_px=None, gravity_m_s2=STANDARD_GRAVITY_M_S2, attrs=None):
@@ -199,8 +209,15 @@ def trajectory_from_log(path, scale_m_per_px=None, gravity_m_s2=STANDARD_GRAVITY
     if unit != "px":
         return make_trajectory(time, height * LENGTH_UNITS_M[unit], path, f"unit conversion from {unit}", extra)
     if scale_m_per_px is not None:
+        if scale_m_per_px == 0:
+            raise InputError(f"{path}: scale_m_per_px is 0; give metres per pixel (negative for image rows)")
+        heights = height * scale_m_per_px
+        finite = heights[np.isfinite(heights)]
+        if finite[0] < np.median(finite):
+            raise InputError(f"{path}: with scale_m_per_px = {scale_m_per_px:g} the ball starts low and rises: "
+                             f"if the pixel axis points down (image rows), give a negative scale")
         extra["scale_m_per_px"] = float(scale_m_per_px)
-        return make_trajectory(time, height * scale_m_per_px, path, "given scale in m/px", extra)
+        return make_trajectory(time, heights, path, "given scale in m/px", extra)
     scale, scale_se = scale_from_gravity(time, height, gravity_m_s2, source=str(path))
     extra.update(scale_m_per_px=float(scale), scale_se_m_per_px=float(scale_se))
     return make_trajectory(time, height * scale, path, "scale from gravity (flight curvature)", extra)
@@ -208,8 +225,11 @@ def trajectory_from_log(path, scale_m_per_px=None, gravity_m_s2=STANDARD_GRAVITY
 
 def read_trajectory(path):
     """Open a trajectory NetCDF file written by ``dropfit measure``; raise InputError for a failure record."""
-    with xr.open_dataset(path) as dataset:
-        dataset = dataset.load()
+    try:
+        with xr.open_dataset(path) as dataset:
+            dataset = dataset.load()
+    except (OSError, ValueError) as error:
+        raise InputError(f"{path}: not a trajectory written by dropfit measure ({type(error).__name__})") from None
     if dataset.attrs.get("status") == "failed":
         raise InputError(dataset.attrs["error"])
     return dataset

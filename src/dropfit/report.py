@@ -353,7 +353,8 @@ def _contact_png(model):
     from .contact import LinearContact, simulate_contact
 
     stiffness, damping = model["stiffness_n_m"]["value"], model["damping_n_s_m"]["value"]
-    result = simulate_contact(LinearContact(stiffness, damping), model["mass_kg"], model["impact_speed_m_s"])
+    result = simulate_contact(LinearContact(stiffness, damping), model["mass_kg"], model["impact_speed_m_s"],
+                              model["gravity_m_s2"])
     fig, force_axis = plt.subplots(figsize=(6.5, 3.0))
     force_axis.plot(1e3 * result.time_s, result.force_n, color="C3", lw=2, label="contact force F")
     force_axis.set_xlabel("time after touchdown (ms)")

@@ -43,8 +43,8 @@ def constant_restitution(e, covariance):
     Returns
     -------
     dict
-        ``e`` (estimate dict), ``chi2`` and ``dof`` of the constant model under the full covariance,
-        its ``p_value`` (a small one says e is not the same at every impact), and ``n_impacts``.
+        ``e`` (estimate dict), ``chi2`` and ``dof`` of the constant model under the full covariance
+        (at its generalised-least-squares minimum), its ``p_value`` (a small one says e is not the same at every impact), and ``n_impacts``.
     """
     e = np.asarray(e, dtype=float)
     covariance = np.asarray(covariance, dtype=float)
@@ -52,8 +52,11 @@ def constant_restitution(e, covariance):
     weights /= weights.sum()
     value = weights @ e
     se = np.sqrt(weights @ covariance @ weights)
-    residual = e - value
-    chi2 = float(residual @ np.linalg.pinv(covariance) @ residual)
+    # the test of constancy uses the generalised-least-squares minimum, where χ² follows its law
+    precision = np.linalg.pinv(covariance)
+    ones = np.ones(e.size)
+    residual = e - (ones @ precision @ e) / (ones @ precision @ ones)
+    chi2 = float(residual @ precision @ residual)
     dof = e.size - 1
     return {
         "e": estimate(value, se, "1"),
@@ -141,12 +144,14 @@ def theory_checks(e, e_se, drop_height_m, fall_time_s, measured_heights_m, measu
 
 
 def itf_rebound(drop_height_m, drop_height_se_m, first_rebound_m, first_rebound_se_m, e, e_se, drag_k_per_m,
-                gravity_m_s2, drop_height_tolerance_m=0.02, itf_drop_height_m=ITF_DROP_HEIGHT_M):
+                gravity_m_s2, drop_height_tolerance_m=0.02, itf_drop_height_m=ITF_DROP_HEIGHT_M,
+                e_source="the fitted constant e"):
     """Rebound height in m of a drop from the ITF height, measured or predicted.
 
     From a drop within ``drop_height_tolerance_m`` of the ITF height, the measured first rebound is
     used, scaled by the ratio of the drop heights. From any other height it is predicted with the
-    fitted constant e and drag: v_in at the end of the ITF fall, v_out = e v_in, rise of v_out.
+    given e (described by ``e_source``) and drag: v_in at the end of the ITF fall, v_out = e v_in, rise
+    of v_out.
 
     Returns
     -------
@@ -165,8 +170,9 @@ def itf_rebound(drop_height_m, drop_height_se_m, first_rebound_m, first_rebound_
     value = float(apex_rise(e * v_in, drag_k_per_m, gravity_m_s2))
     slope = (float(apex_rise((e + 1e-6) * v_in, drag_k_per_m, gravity_m_s2)) - value) / 1e-6
     result = estimate(value, abs(slope) * e_se, "m")
-    result["method"] = f"predicted from the fitted constant e and drag for a {100 * itf_drop_height_m:.0f} cm drop " \
-                       f"(measured drop {100 * drop_height_m:.1f} cm); assumes e does not depend on impact speed"
+    result["method"] = f"predicted for a {100 * itf_drop_height_m:.0f} cm drop (measured drop " \
+                       f"{100 * drop_height_m:.1f} cm) with e = {e:.4f} from {e_source} and drag k = " \
+                       f"{drag_k_per_m:.4g} 1/m"
     return result
 
 

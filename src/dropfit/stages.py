@@ -7,7 +7,6 @@ records, with ``--record-failure``).
 
 from __future__ import annotations
 
-import json
 from pathlib import Path
 
 import numpy as np
@@ -19,10 +18,10 @@ from .contact import fit_linear_contact
 from .errors import InputError
 from .files import atomic_output, read_json, read_table, sha256_of, write_json, write_text
 from .heightlog import read_trajectory, trajectory_from_log
-from .physics import SPHERE_DRAG_COEFFICIENT, STANDARD_GRAVITY_M_S2, drag_parameter
+from .physics import SPHERE_DRAG_COEFFICIENT, STANDARD_GRAVITY_M_S2, drag_parameter, speed_below_apex
 from .restitution import (ITF_DROP_HEIGHT_M, ITF_REBOUND_MAX_M, ITF_REBOUND_MIN_M, constant_restitution,
                           drag_shift, estimate, itf_rebound, itf_verdict, theory_checks)
-from .speed_dependence import fit_speed_dependence
+from .speed_dependence import fit_speed_dependence, predict_e
 from .synth import synthesize
 
 
@@ -106,10 +105,13 @@ def fit(analysis_path, impacts_path, out_path, ball_type=None, itf_drop_height_m
     fall_time = impacts["t_touchdown_s"].iloc[0] - summary["drop_apex_time_s"]
     theory = theory_checks(e, e_se, summary["drop_height_m"], fall_time, impacts["h_after_m"].to_numpy(),
                            impacts["h_after_se_m"].to_numpy(), summary["rest_time_s"] - summary["drop_apex_time_s"])
-    itf = _itf(ball_type, summary, impacts, e, e_se, itf_drop_height_m, itf_rebound_min_m, itf_rebound_max_m,
-               itf_drop_height_tolerance_m)
+    speed_law = fit_speed_dependence(impacts["v_in_m_s"].to_numpy(), impacts["e"].to_numpy(),
+                                     np.asarray(summary["e_covariance"])) if len(impacts) >= 3 else None
+    radius = attrs.get("ball_radius_m")
+    nominal_k = float(drag_parameter(SPHERE_DRAG_COEFFICIENT, radius, mass)) if radius and mass else None
+    itf = _itf(ball_type, summary, impacts, e, e_se, speed_law, nominal_k, itf_drop_height_m, itf_rebound_min_m,
+               itf_rebound_max_m, itf_drop_height_tolerance_m)
     resolvable_rows = impacts[impacts["contact_resolvable"].astype(bool)]
-    resolvable = not resolvable_rows.empty
     drag = {
         "model": summary["drag_model"],
         "k_per_m": estimate(summary["drag_k_per_m"], summary["drag_k_se_per_m"], "1/m"),
@@ -119,9 +121,7 @@ def fit(analysis_path, impacts_path, out_path, ball_type=None, itf_drop_height_m
         if np.isfinite(summary["bic_quadratic_drag"]) and np.isfinite(summary["bic_no_drag"])
         else "fixed by the --drag option",
     }
-    radius = attrs.get("ball_radius_m")
-    if summary["drag_model"] == "none" and radius and mass:
-        nominal_k = float(drag_parameter(SPHERE_DRAG_COEFFICIENT, radius, mass))
+    if summary["drag_model"] == "none" and nominal_k:
         drag["nominal_k_per_m"] = nominal_k
         drag["e_shift_with_nominal_drag"] = drag_shift(
             impacts["h_before_m"].to_numpy(), impacts["h_after_m"].to_numpy(), np.diag(summary["e_covariance"]),
@@ -138,9 +138,7 @@ def fit(analysis_path, impacts_path, out_path, ball_type=None, itf_drop_height_m
         "ball": {"type": ball_type, "radius_m": attrs.get("ball_radius_m"), "mass_kg": attrs.get("ball_mass_kg")},
         "calibration": attrs.get("calibration"),
         "restitution": {"model": "constant", "why": why, **constant},
-        "restitution_vs_speed": fit_speed_dependence(impacts["v_in_m_s"].to_numpy(), impacts["e"].to_numpy(),
-                                                     np.asarray(summary["e_covariance"]))
-        if len(impacts) >= 3 else None,
+        "restitution_vs_speed": speed_law,
         "drag": drag,
         "drop_height_m": estimate(summary["drop_height_m"], summary["drop_height_se_m"], "m"),
         "contact_height_m": estimate(summary["contact_height_m"], summary["contact_height_se_m"], "m"),
@@ -173,6 +171,10 @@ def _contact_model(resolvable_rows, mass_kg, gravity_m_s2):
     """Linear contact k, c from the impacts whose contact time is resolved (None if there are none)."""
     if resolvable_rows.empty or not mass_kg:
         return None
+    physical = resolvable_rows[(resolvable_rows["e"] > 0) & (resolvable_rows["e"] < 1)]
+    if physical.empty:
+        return None
+    resolvable_rows = physical
     fitted = fit_linear_contact(mass_kg, resolvable_rows["v_in_m_s"], resolvable_rows["e"], resolvable_rows["e_se"],
                                 1e-3 * resolvable_rows["t_contact_ms"], 1e-3 * resolvable_rows["t_contact_se_ms"],
                                 gravity_m_s2)
@@ -181,6 +183,7 @@ def _contact_model(resolvable_rows, mass_kg, gravity_m_s2):
         "stiffness_n_m": estimate(*fitted["stiffness_n_m"], "N/m"),
         "damping_n_s_m": estimate(*fitted["damping_n_s_m"], "N s/m"),
         "mass_kg": mass_kg,
+        "gravity_m_s2": gravity_m_s2,
         "impact_speed_m_s": float(resolvable_rows["v_in_m_s"].iloc[0]),
         "n_impacts": len(resolvable_rows),
         "why": "each impact's e and contact time inverted exactly, weighted by inverse variance; errors of e and "
@@ -188,15 +191,24 @@ def _contact_model(resolvable_rows, mass_kg, gravity_m_s2):
     }
 
 
-def _itf(ball_type, summary, impacts, e, e_se, drop_height_itf, rebound_min, rebound_max, tolerance):
+def _itf(ball_type, summary, impacts, e, e_se, speed_law, nominal_k, drop_height_itf, rebound_min, rebound_max,
+         tolerance):
     limits = {"drop_height_m": drop_height_itf, "rebound_min_m": rebound_min, "rebound_max_m": rebound_max,
               "source": "ITF Rules of Tennis, Appendix I"}
     if ball_type != "tennis":
         return {"verdict": "not applicable", "why": f"the ITF rebound window is for tennis balls, this is {ball_type}",
                 "limits": limits}
+    # a prediction from another drop height is for a ball in air: with the fitted drag, or with that of a
+    # smooth sphere of the ball's size where the data could not show drag; and with e at the ITF impact speed
+    drag_k = summary["drag_k_per_m"] if summary["drag_model"] == "quadratic" else (nominal_k or 0.0)
+    e_source = "the fitted constant e"
+    if speed_law and speed_law["chosen"] != "constant":
+        itf_speed = float(speed_below_apex(drop_height_itf, drag_k, summary["gravity_m_s2"]))
+        e, e_se = (float(x) for x in predict_e(speed_law["models"][speed_law["chosen"]], itf_speed))
+        e_source = f"the {speed_law['chosen']} e(v) law at the ITF impact speed {itf_speed:.2f} m/s"
     rebound = itf_rebound(summary["drop_height_m"], summary["drop_height_se_m"], impacts["h_after_m"].iloc[0],
-                          impacts["h_after_se_m"].iloc[0], e, e_se, summary["drag_k_per_m"], summary["gravity_m_s2"],
-                          tolerance, drop_height_itf)
+                          impacts["h_after_se_m"].iloc[0], e, e_se, drag_k, summary["gravity_m_s2"],
+                          tolerance, drop_height_itf, e_source)
     verdict = itf_verdict(rebound, rebound_min, rebound_max)
     return {"verdict": verdict, "rebound_m": rebound, "limits": limits,
             "why": "pass: the 95 % interval lies inside the window; fail: wholly outside; "
@@ -217,7 +229,10 @@ def summary(fit_paths, csv_path, html_path):
 
     rows = []
     for path in fit_paths:
-        data = json.loads(Path(path).read_text(encoding="utf-8"))
+        try:
+            data = read_json(path)
+        except InputError as error:  # a failure record, or a file that is not a fit result
+            data = {"status": "failed", "error": str(error)}
         data.setdefault("sample_id", Path(path).parent.name)
         if data.get("status") == "failed":
             data["sample_id"] = Path(path).parent.name
