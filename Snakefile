@@ -2,6 +2,7 @@
 #
 # Table of contents only; the rules live in workflow/rules/, one file per stage:
 #   synth    data/synthetic/{scenario}.csv + .truth.json   synthetic drop tests with ground truth
+#   synth_video  results/video/{clip}.avi + truth           synthetic drop-test videos
 #   measure  results/{sample}/trajectory.nc                 height log -> SI trajectory
 #   analyse  results/{sample}/{impacts,flights}.csv, analysis.json
 #   fit      results/{sample}/fit.json                      restitution fit + ITF verdict
@@ -20,6 +21,7 @@ configfile: "config/config.yaml"
 
 include: "workflow/rules/common.smk"
 include: "workflow/rules/synth.smk"
+include: "workflow/rules/synth_video.smk"
 include: "workflow/rules/measure.smk"
 include: "workflow/rules/analyse.smk"
 include: "workflow/rules/fit.smk"

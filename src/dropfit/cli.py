@@ -35,8 +35,13 @@ def _parser():
     synth.add_argument("--truth", required=True, help="output ground truth (JSON)")
     synth.add_argument("--seed", type=int, help="override the scenario's seed")
 
-    measure = stage("measure", "height log (CSV) → trajectory (NetCDF, m)")
-    measure.add_argument("log", help="height log CSV")
+    video = sub.add_parser("synth-video", help="render a default synthetic drop-test video and its ground truth")
+    video.add_argument("--name", required=True, help="clip name (see dropfit.video_synth.default_clips)")
+    video.add_argument("--out-dir", required=True, help="directory for <name>.avi, .frames.csv and .truth.json")
+    video.add_argument("--seed", type=int, default=0, help="seed of the sensor noise")
+
+    measure = stage("measure", "height log (CSV) or video → trajectory (NetCDF, m)")
+    measure.add_argument("log", help="height log CSV, or a video (.avi, .mp4, .mov, .mkv)")
     measure.add_argument("--out", required=True, help="trajectory NetCDF to write")
     measure.add_argument("--sample-id")
     measure.add_argument("--ball-radius-m", type=float, help="ball radius in m")
@@ -45,6 +50,8 @@ def _parser():
     measure.add_argument("--scale-m-per-px", type=float,
                          help="m per px for logs in px (negative if the axis points down); default: from gravity")
     measure.add_argument("--gravity-m-s2", type=_positive, default=STANDARD_GRAVITY_M_S2, help="gravity in m/s²")
+    measure.add_argument("--capture-fps", type=_positive,
+                         help="capture rate in frames/s of a slow-motion video whose file states another rate")
     measure.add_argument("--floor-m", type=float,
                          help="height of the floor in the log's frame, in m (makes contact times measurable)")
 
@@ -90,9 +97,11 @@ def _run(args):
     """Call the stage with the parsed arguments."""
     if args.command == "synth":
         stages.synth(args.scenarios, args.name, args.log, args.truth, args.seed)
+    elif args.command == "synth-video":
+        stages.synth_video(args.name, args.out_dir, args.seed)
     elif args.command == "measure":
         stages.measure(args.log, args.out, args.sample_id, args.ball_radius_m, args.ball_mass_kg, args.ball_type,
-                       args.scale_m_per_px, args.gravity_m_s2, args.floor_m)
+                       args.scale_m_per_px, args.gravity_m_s2, args.floor_m, args.capture_fps)
     elif args.command == "analyse":
         stages.analyse(args.trajectory, args.impacts, args.flights, args.summary, args.drag, args.gravity_m_s2)
     elif args.command == "fit":

@@ -23,6 +23,7 @@ from .restitution import (ITF_DROP_HEIGHT_M, ITF_REBOUND_MAX_M, ITF_REBOUND_MIN_
                           drag_shift, estimate, itf_rebound, itf_verdict, theory_checks)
 from .speed_dependence import fit_speed_dependence, predict_e
 from .synth import synthesize
+from .videolog import is_video, trajectory_from_video
 
 
 def synth(scenarios_path, name, log_path, truth_path, seed=None):
@@ -42,17 +43,30 @@ def synth(scenarios_path, name, log_path, truth_path, seed=None):
     write_json(truth_path, truth)
 
 
-def measure(log_path, out_path, sample_id=None, ball_radius_m=None, ball_mass_kg=None, ball_type=None,
-            scale_m_per_px=None, gravity_m_s2=STANDARD_GRAVITY_M_S2, floor_m=None):
-    """Height log → trajectory NetCDF (heights in m, up; dropouts flagged).
+def synth_video(name, out_dir, seed=0):
+    """Render the default synthetic video ``name`` with its per-frame and drop ground truth."""
+    from .video_synth import default_clips, make_default_videos
 
-    ``floor_m`` is the height of the floor surface in the log's frame, in m, where it is known.
+    if name not in default_clips():
+        raise InputError(f"no synthetic clip {name!r}; known: {', '.join(default_clips())}")
+    make_default_videos(out_dir, seed=seed, names=[name])
+
+
+def measure(log_path, out_path, sample_id=None, ball_radius_m=None, ball_mass_kg=None, ball_type=None,
+            scale_m_per_px=None, gravity_m_s2=STANDARD_GRAVITY_M_S2, floor_m=None, capture_fps=None):
+    """Height log or video → trajectory NetCDF (heights in m, up; dropouts flagged).
+
+    ``floor_m`` is the height of the floor surface in the log's frame, in m, where it is known;
+    ``capture_fps`` the capture rate of a slow-motion video whose container says otherwise.
     """
-    trajectory = trajectory_from_log(
-        log_path, scale_m_per_px=scale_m_per_px, gravity_m_s2=gravity_m_s2,
-        attrs={"sample_id": sample_id, "ball_radius_m": ball_radius_m, "ball_mass_kg": ball_mass_kg,
-               "ball_type": ball_type, "floor_m": floor_m, "dropfit_version": __version__},
-    )
+    attrs = {"sample_id": sample_id, "ball_radius_m": ball_radius_m, "ball_mass_kg": ball_mass_kg,
+             "ball_type": ball_type, "floor_m": floor_m, "dropfit_version": __version__}
+    if is_video(log_path):
+        trajectory = trajectory_from_video(log_path, ball_radius_m, scale_m_per_px and abs(scale_m_per_px),
+                                           capture_fps, gravity_m_s2, attrs)
+    else:
+        trajectory = trajectory_from_log(log_path, scale_m_per_px=scale_m_per_px, gravity_m_s2=gravity_m_s2,
+                                         attrs=attrs)
     trajectory.attrs["source_sha256"] = sha256_of(log_path)  # after the read: it has checked the file exists
     with atomic_output(out_path) as tmp:
         trajectory.to_netcdf(tmp)

@@ -29,6 +29,13 @@ with open(config["scenarios"]) as handle:
 validate(scenarios, schema="../schemas/scenarios.schema.yaml")
 
 
+from dropfit.video_synth import default_clips
+
+#: Where rule synth_video renders the default synthetic videos.
+VIDEO_DIR = "results/video"
+video_clips = list(default_clips())
+
+
 def _alternatives(names):
     """Regex matching exactly one of ``names`` (for wildcard constraints)."""
     return "|".join(re.escape(str(name)) for name in names)
@@ -37,6 +44,7 @@ def _alternatives(names):
 wildcard_constraints:
     sample=_alternatives(samples.index),
     scenario=_alternatives(scenarios["scenarios"]),
+    clip=_alternatives(video_clips),
 
 
 def _has_value(value):
@@ -70,6 +78,11 @@ def all_fits(wildcards):
     return expand("results/{sample}/fit.json", sample=samples.index)
 
 
+def output_directory(wildcards, output):
+    """Directory of a rule's first output (for commands that take a directory)."""
+    return os.path.dirname(output[0])
+
+
 def recording_path(wildcards):
     """The sample's raw recording (column ``path``)."""
     return sample_row(wildcards)["path"]
@@ -83,6 +96,7 @@ def measure_input(wildcards):
     """
     path = recording_path(wildcards)
     synthetic = {f"data/synthetic/{name}.csv" for name in scenarios["scenarios"]}
+    synthetic |= {f"{VIDEO_DIR}/{clip}.avi" for clip in video_clips}
     if os.path.exists(path) or os.path.normpath(path) in synthetic:
         return path
     return []

@@ -1,0 +1,864 @@
+"""Ball tracking in video: the sub-pixel centre and radius of the ball in every frame.
+
+The camera is static, so the scene without the ball is one image, the *background*. It is the
+per-pixel median of a few frames spread over the whole clip (not the first frames: the ball is
+usually held at the top, by a hand, before release). A pixel belongs to the foreground where its
+grey level differs from the background by more than ``NOISE_THRESHOLD_SIGMAS`` robust noise
+standard deviations (at least ``MIN_THRESHOLD_GREY`` grey levels).
+
+In the first frame, and whenever the ball was lost, the whole (downscaled) frame is searched for
+the foreground blob with the largest inscribed circle, preferring lone, roughly circular blobs.
+Afterwards the position is predicted from the last three positions (constant acceleration) and
+only a window of about four radii around the prediction is converted to grey and measured.
+
+Measurement (:func:`measure_ball`). With the ball grey level ``F`` (median of the blob's interior)
+and the background ``B``, each pixel's coverage by the ball is ``a = (I - B) / (F - B)``; a
+pixel well inside the blob counts as fully covered, and an anti-aliased or motion-blurred edge
+pixel counts with its measured ``a``. The centre is the coverage-weighted centroid, and the radius
+is ``sqrt(sum(a) / pi)``; both are unbiased for a disc of uniform grey level, and the centroid
+of a motion-blurred ball is its centre averaged over the exposure. Coordinates are in px with the
+OpenCV convention: the centre of pixel (row ``i``, column ``j``) is at ``x = j``, ``y = i``;
+``y`` increases downwards.
+
+Quality flags, one per frame (column ``quality``):
+
+``ok``
+    A lone, complete ball: centre and radius are measured as above.
+``partial``
+    The ball touches the image border: the centre and radius come from a circle fit to the
+    visible outline, which is less accurate.
+``occluded``
+    The ball's blob is merged with another object (a hand holding it, or the ball's own shadow)
+    or is much smaller than expected (something in front of it). The centre and radius come from
+    a robust circle fit to the part of the outline that lies on a circle; treat them as
+    approximate. A hand holding the ball before release gives ``occluded`` frames.
+``lost``
+    No ball was found (it left the image, or it is hidden): ``x_px``, ``y_px`` and ``radius_px``
+    are NaN.
+``duplicate``
+    The frame is identical (within ``DUPLICATE_TOLERANCE_GREY``) to the previous frame, as when
+    a recorder repeats frames to fill a nominal rate: its time stamp does not belong to its
+    content, so it is dropped from the trajectory (NaN position).
+
+Only ``ok`` rows are meant for fitting trajectories.
+
+Hands. A hand holding the ball is a foreground blob merged with the ball. The ball is the largest
+inscribed circle of the merged blob (this assumes the hand, as seen by the camera, is narrower
+than the ball, as fingers or a wrist are); the frame is flagged ``occluded`` because the blob is
+not a lone disc: its second-moment ellipse is elongated (axis ratio above ``MAX_AXIS_RATIO``),
+it fills less than ``MIN_ELLIPSE_FILL`` of that ellipse, or its area exceeds
+``ATTACHED_AREA_FRACTION`` times the expected ball area. Once the ball is released, the hand is a
+separate blob, and its pixels are excluded from the ball's measurement.
+
+Limitations: the camera must not move; the ball, and the hand, must not stay at one place for
+more than about half the clip (else they become part of the median background: trim such clips);
+the ball must differ in grey level from the background (a red ball on a green wall of the same
+luminance is invisible); shading on the ball biases the edge coverage slightly.
+"""
+
+from __future__ import annotations
+
+import math
+import queue
+import threading
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+import cv2
+import numpy as np
+import pandas as pd
+
+from .errors import InputError
+
+QUALITY_OK = "ok"
+QUALITY_PARTIAL = "partial"
+QUALITY_OCCLUDED = "occluded"
+QUALITY_LOST = "lost"
+QUALITY_DUPLICATE = "duplicate"
+QUALITIES = (QUALITY_OK, QUALITY_PARTIAL, QUALITY_OCCLUDED, QUALITY_LOST, QUALITY_DUPLICATE)
+COLUMNS = ["frame", "time_s", "x_px", "y_px", "radius_px", "quality"]
+
+#: Foreground threshold, in robust noise standard deviations of (frame - background).
+NOISE_THRESHOLD_SIGMAS = 5.0
+#: Lower bound of the foreground threshold, grey levels (for noise-free or quantised video).
+MIN_THRESHOLD_GREY = 6.0
+#: Smallest ball radius the tracker looks for, px.
+MIN_RADIUS_PX = 2.0
+#: Coverage above which an edge-connected interior pixel counts as fully covered.
+DEEP_COVERAGE = 0.9
+#: A blob whose second-moment ellipse has a larger axis ratio is not a lone disc (a disc blurred
+#: over its own diameter has 1.5).
+MAX_AXIS_RATIO = 1.6
+#: A blob filling less than this fraction of its second-moment ellipse (4π σ_major σ_minor) is not
+#: a lone disc.
+MIN_ELLIPSE_FILL = 0.85
+#: In the whole-frame search, a blob whose area exceeds this multiple of its largest inscribed
+#: circle's (plus a perimeter's worth for the coarse grid) is not a lone disc.
+MAX_FILL_RATIO = 1.3
+#: A blob larger than this multiple of the expected disc area (radius + 1 px) has something attached.
+ATTACHED_AREA_FRACTION = 1.3
+#: A ball whose measured area is below this fraction of the expected area is partly hidden.
+OCCLUDED_AREA_FRACTION = 0.9
+#: Mean absolute grey-level difference to the previous frame at or below which a frame is a duplicate.
+DUPLICATE_TOLERANCE_GREY = 0.5
+#: Number of frames, spread over the clip, whose per-pixel median is the background.
+BACKGROUND_SAMPLES = 11
+#: Pixels between the sparse samples of the duplicate test.
+DUPLICATE_STRIDE_PX = 16
+#: Extra margin of the search window, px.
+WINDOW_MARGIN_PX = 6
+
+_ELLIPSE_3 = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (3, 3))
+_ELLIPSE_5 = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (5, 5))
+_ELLIPSE_7 = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (7, 7))
+
+
+@dataclass(frozen=True)
+class Background:
+    """The static scene.
+
+    Attributes
+    ----------
+    grey : numpy.ndarray
+        Background grey levels, float32, shape (height, width).
+    noise_grey : float
+        Robust standard deviation of a frame's grey level about the background, grey levels.
+    threshold_grey : float
+        Foreground threshold on ``|frame - background|``, grey levels.
+    """
+
+    grey: np.ndarray
+    noise_grey: float
+    threshold_grey: float
+
+
+@dataclass(frozen=True)
+class BallMeasurement:
+    """One frame's ball, in the coordinates of the image that was measured.
+
+    Attributes
+    ----------
+    x_px, y_px : float
+        Centre, px (pixel centres at integer coordinates).
+    radius_px : float
+        Radius, px.
+    quality : str
+        One of ``ok``, ``partial``, ``occluded``.
+    area_px2 : float
+        Area covered by the ball, px².
+    truncated : bool
+        The blob reaches an edge of the measured window that is not an image edge: the window was
+        too small, measure again in a larger one.
+    """
+
+    x_px: float
+    y_px: float
+    radius_px: float
+    quality: str
+    area_px2: float
+    truncated: bool = False
+
+
+def to_grey(image):
+    """Grey levels of an image as float32.
+
+    Parameters
+    ----------
+    image : numpy.ndarray
+        Grey (height, width) or BGR (height, width, 3) image, any numeric type.
+
+    Returns
+    -------
+    numpy.ndarray
+        float32 grey levels, shape (height, width).
+    """
+    image = np.asarray(image)
+    if image.ndim == 2:
+        return image.astype(np.float32, copy=False)
+    if image.ndim == 3 and image.shape[2] == 3:
+        return cv2.cvtColor(image.astype(np.float32), cv2.COLOR_BGR2GRAY)
+    if image.ndim == 3 and image.shape[2] == 1:
+        return image[:, :, 0].astype(np.float32)
+    raise ValueError(f"expected a grey or BGR image, got shape {image.shape}")
+
+
+def _median_uint8(images):
+    """Per-pixel median of an odd number of uint8 images (odd-even transposition sort)."""
+    images = list(images)
+    k = len(images)
+    for step in range(k):
+        for i in range(step % 2, k - 1, 2):
+            images[i], images[i + 1] = cv2.min(images[i], images[i + 1]), cv2.max(images[i], images[i + 1])
+    return images[k // 2]
+
+
+def _grey_uint8(image):
+    image = np.asarray(image)
+    if image.dtype != np.uint8:
+        return None
+    if image.ndim == 3 and image.shape[2] == 3:
+        return cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
+    if image.ndim == 3 and image.shape[2] == 1:
+        return np.ascontiguousarray(image[:, :, 0])
+    return np.ascontiguousarray(image) if image.ndim == 2 else None
+
+
+def estimate_background(samples):
+    """Background from frames spread over the clip.
+
+    Parameters
+    ----------
+    samples : sequence of numpy.ndarray
+        At least one grey or BGR frame; an odd number of 5 or more, spread over the whole clip,
+        makes the ball and hand disappear from the median.
+
+    Returns
+    -------
+    Background
+        Per-pixel median grey level, robust noise in grey levels and the foreground threshold.
+    """
+    greys = [_grey_uint8(sample) for sample in samples]
+    if len(greys) % 2 and all(g is not None for g in greys):
+        grey = _median_uint8(greys).astype(np.float32)
+        stack = np.stack([g[::8, ::8] for g in greys]).astype(np.float32)
+    else:
+        full = np.stack([to_grey(sample) for sample in samples])
+        grey = np.median(full, axis=0).astype(np.float32)
+        stack = full[:, ::8, ::8]
+    k = stack.shape[0]
+    if k >= 3:
+        # median absolute deviation about the median; of k samples, the median one contributes 0
+        deviation = np.abs(stack - grey[::8, ::8])
+        noise = 1.4826 * float(np.median(deviation)) * k / (k - 1)
+    else:
+        noise = 0.0
+    threshold = max(NOISE_THRESHOLD_SIGMAS * noise, MIN_THRESHOLD_GREY)
+    return Background(np.ascontiguousarray(grey, dtype=np.float32), noise, threshold)
+
+
+def _fill_largest(mask):
+    """The largest 8-connected blob of a uint8 mask with its holes filled, and its outline."""
+    contours, _ = cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
+    if not contours:
+        return None, None
+    contour = max(contours, key=lambda c: (cv2.contourArea(c), len(c)))
+    filled = np.zeros_like(mask)
+    cv2.drawContours(filled, [contour], -1, 1, thickness=-1)
+    return filled, contour.reshape(-1, 2)
+
+
+def fit_circle(x, y):
+    """Algebraic (Kåsa) least-squares circle through points.
+
+    Parameters
+    ----------
+    x, y : numpy.ndarray
+        Point coordinates, px.
+
+    Returns
+    -------
+    (float, float, float)
+        Centre x, centre y and radius, px.
+    """
+    x = np.asarray(x, float)
+    y = np.asarray(y, float)
+    mx, my = x.mean(), y.mean()
+    u, v = x - mx, y - my
+    design = np.column_stack([u, v, np.ones_like(u)])
+    solution = np.linalg.lstsq(design, -(u * u + v * v), rcond=None)[0]
+    cx, cy = -solution[0] / 2, -solution[1] / 2
+    radius = math.sqrt(max(cx * cx + cy * cy - solution[2], 0.0))
+    return cx + mx, cy + my, radius
+
+
+def _robust_circle(points, centre, radius, keep_mask):
+    """Circle fit to outline points near a first guess, trimmed three times; None if too few points."""
+    points = points[keep_mask] if keep_mask is not None else points
+    cx, cy, r = centre[0], centre[1], radius
+    for fraction in (0.35, 0.15, 0.08):
+        distance = np.hypot(points[:, 0] - cx, points[:, 1] - cy)
+        near = np.abs(distance - r) <= max(1.5, fraction * r)
+        if near.sum() < 8:
+            return None
+        cx, cy, r = fit_circle(points[near, 0], points[near, 1])
+    return cx, cy, r
+
+
+def measure_ball(grey, background, threshold_grey, centre_guess, radius_ref_px=None,
+                 image_edges=(True, True, True, True)):
+    """Sub-pixel centre and radius of the ball in one (window of a) frame.
+
+    A pure function of its arguments.
+
+    Parameters
+    ----------
+    grey, background : numpy.ndarray
+        float32 grey levels of the frame and of the background over the same window.
+    threshold_grey : float
+        Foreground threshold on ``|grey - background|``, grey levels.
+    centre_guess : (float, float)
+        Expected centre (x, y) in window px; the blob nearest to it is the ball.
+    radius_ref_px : float, optional
+        Expected radius, px; used to reject small blobs and to flag attached or hidden balls.
+    image_edges : (bool, bool, bool, bool)
+        Whether the window's left, top, right and bottom edges are edges of the image.
+
+    Returns
+    -------
+    BallMeasurement or None
+        In window px; None when no blob can be the ball.
+    """
+    height, width = grey.shape
+    diff = grey - background
+    foreground = (np.abs(diff) > threshold_grey).astype(np.uint8)
+    count, labels, stats, centroids = cv2.connectedComponentsWithStats(foreground, connectivity=8)
+    if count < 2:
+        return None
+    areas = stats[1:, cv2.CC_STAT_AREA]
+    min_area = max(math.pi * MIN_RADIUS_PX ** 2, 0.2 * math.pi * radius_ref_px ** 2 if radius_ref_px else 0.0)
+    gx, gy = centre_guess
+    candidates = np.flatnonzero(areas >= min_area) + 1
+    if candidates.size == 0:
+        return None
+    ix, iy = int(round(gx)), int(round(gy))
+    inside = 0 <= ix < width and 0 <= iy < height
+    if inside and labels[iy, ix] in candidates:
+        label = int(labels[iy, ix])
+    else:
+        distance = np.hypot(centroids[candidates, 0] - gx, centroids[candidates, 1] - gy)
+        label = int(candidates[np.argmin(distance)])
+
+    blob = (labels == label).astype(np.uint8)
+    filled, _ = _fill_largest(blob)
+    left, top, right, bottom = image_edges
+    x0, y0, w, h = stats[label, :4]
+    touches = (x0 == 0, y0 == 0, x0 + w == width, y0 + h == height)
+    at_image_edge = any(t and e for t, e in zip(touches, image_edges))
+    truncated = any(t and not e for t, e in zip(touches, image_edges))
+
+    # A lone disc (even motion-blurred) is round and fills the ellipse of its second moments; a
+    # ball with a hand attached is elongated or not convex. Moments ignore a stray pixel.
+    moments = cv2.moments(filled, binaryImage=True)
+    filled_area = moments["m00"]
+    if filled_area <= 0:
+        return None
+    mu20, mu02, mu11 = (moments[k] / filled_area for k in ("mu20", "mu02", "mu11"))
+    spread = math.hypot((mu20 - mu02) / 2, mu11)
+    major, minor = (mu20 + mu02) / 2 + spread, max((mu20 + mu02) / 2 - spread, 1e-9)
+    attached = (major > MAX_AXIS_RATIO ** 2 * minor
+                or filled_area < MIN_ELLIPSE_FILL * 4 * math.pi * math.sqrt(major * minor))
+    if radius_ref_px:
+        attached |= filled_area > ATTACHED_AREA_FRACTION * math.pi * (radius_ref_px + 1.0) ** 2
+    if attached or at_image_edge:
+        # the largest inscribed circle: the ball, when what is attached is narrower than the ball
+        inscribed = cv2.distanceTransform(filled, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+        r_in = float(inscribed.max())
+        iy_in, ix_in = np.unravel_index(int(np.argmax(inscribed)), inscribed.shape)
+
+    # The ball's grey level, and each pixel's coverage by the ball.
+    core = cv2.erode(filled, _ELLIPSE_5)
+    if attached:
+        # only the inscribed disc is surely the ball
+        yy, xx = np.ogrid[:height, :width]
+        core = core & ((xx - ix_in) ** 2 + (yy - iy_in) ** 2 <= (0.7 * r_in) ** 2).astype(np.uint8)
+    core_values = grey[core.astype(bool)] if core.any() else grey[filled.astype(bool)]
+    ball_grey = float(np.median(core_values))
+    denominator = ball_grey - background
+    sign = 1.0 if ball_grey >= float(background[filled.astype(bool)].mean()) else -1.0
+    small = np.abs(denominator) < threshold_grey
+    denominator[small] = sign * threshold_grey
+    coverage = diff / denominator
+
+    others = foreground & (1 - blob)
+    if count > 2:
+        others = cv2.dilate(others, _ELLIPSE_5)
+    region = cv2.dilate(filled, _ELLIPSE_7) & (1 - others)
+
+    if attached or at_image_edge:
+        half = ((coverage > 0.5) & region.astype(bool)).astype(np.uint8)
+        half_filled, half_outline = _fill_largest(half)
+        if half_filled is None:
+            return None
+        points = half_outline.astype(float)
+        keep = np.ones(len(points), bool)
+        if left:
+            keep &= points[:, 0] > 0
+        if top:
+            keep &= points[:, 1] > 0
+        if right:
+            keep &= points[:, 0] < width - 1
+        if bottom:
+            keep &= points[:, 1] < height - 1
+        if attached:
+            # drop outline points next to the attached object (foreground beyond the ball's fringe)
+            attachment = blob & (1 - cv2.dilate(half_filled, _ELLIPSE_3))
+            attachment = cv2.dilate(cv2.morphologyEx(attachment, cv2.MORPH_OPEN, _ELLIPSE_3), _ELLIPSE_7)
+            keep &= attachment[half_outline[:, 1], half_outline[:, 0]] == 0
+        guess_r = radius_ref_px or r_in
+        circle = _robust_circle(points, (float(ix_in), float(iy_in)), guess_r, keep)
+        cx, cy, r = circle if circle is not None else (float(ix_in), float(iy_in), float(guess_r))
+        # partial: the ball itself (not a hand reaching in from the border) crosses an image edge
+        crosses = (left and cx - r < -0.5, top and cy - r < -0.5,
+                   right and cx + r > width - 0.5, bottom and cy + r > height - 0.5)
+        quality = QUALITY_PARTIAL if (any(crosses) or not attached) else QUALITY_OCCLUDED
+        return BallMeasurement(float(cx), float(cy), float(r), quality, math.pi * r * r, truncated and not attached)
+
+    in_region = region.astype(bool)
+    deep_filled, _ = _fill_largest(((coverage > DEEP_COVERAGE) & in_region).astype(np.uint8))
+    weight = np.where(in_region, np.clip(coverage, -1.0, 2.0), 0.0).astype(np.float32)
+    if deep_filled is not None:
+        weight[cv2.erode(deep_filled, _ELLIPSE_3).astype(bool)] = 1.0
+    area = float(weight.sum())
+    if area <= math.pi * MIN_RADIUS_PX ** 2:
+        return None
+    x = float(weight.sum(axis=0) @ np.arange(width, dtype=np.float32)) / area
+    y = float(weight.sum(axis=1) @ np.arange(height, dtype=np.float32)) / area
+    radius = math.sqrt(area / math.pi)
+    quality = QUALITY_OK
+    if radius_ref_px and area < OCCLUDED_AREA_FRACTION * math.pi * radius_ref_px ** 2:
+        quality = QUALITY_OCCLUDED
+    return BallMeasurement(x, y, radius, quality, area, truncated)
+
+
+def find_ball(grey, background, expected_radius_px=None):
+    """Search a whole frame for the ball.
+
+    Parameters
+    ----------
+    grey : numpy.ndarray
+        Grey levels of the frame (uint8 or float32).
+    background : Background
+        The static scene.
+    expected_radius_px : float, optional
+        Expected radius, px; blobs whose inscribed radius is far from it are ignored.
+
+    Returns
+    -------
+    (float, float, float) or None
+        Approximate centre x, y and radius, px; None when no blob can be the ball. Lone round
+        blobs are preferred over merged ones, then the largest inscribed circle wins.
+    """
+    if expected_radius_px:
+        scale = int(np.clip(expected_radius_px // 4, 1, 4))
+    else:
+        scale = 2
+    if scale > 1:
+        size = (grey.shape[1] // scale, grey.shape[0] // scale)
+        small = cv2.resize(grey[: size[1] * scale, : size[0] * scale], size,
+                           interpolation=cv2.INTER_AREA).astype(np.float32)
+        small_bg = cv2.resize(background.grey[: size[1] * scale, : size[0] * scale], size,
+                              interpolation=cv2.INTER_AREA)
+    else:
+        small, small_bg = grey.astype(np.float32, copy=False), background.grey
+    mask = (cv2.absdiff(small, small_bg) > background.threshold_grey).astype(np.uint8)
+    count, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
+    if count < 2:
+        return None
+    min_area = max(2.0, math.pi * (MIN_RADIUS_PX / scale) ** 2)
+    order = np.argsort(stats[1:, cv2.CC_STAT_AREA])[::-1][:50] + 1
+    best, best_key = None, None
+    for label in order:
+        x0, y0, w, h, area = stats[label]
+        if area < min_area:
+            break
+        blob = np.pad((labels[y0:y0 + h, x0:x0 + w] == label).astype(np.uint8), 1)
+        inscribed = cv2.distanceTransform(blob, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+        r_in = float(inscribed.max())
+        iy, ix = np.unravel_index(int(np.argmax(inscribed)), inscribed.shape)
+        radius = r_in * scale
+        if radius < MIN_RADIUS_PX:
+            continue
+        if expected_radius_px and not 0.5 * expected_radius_px <= radius <= 1.5 * expected_radius_px + scale:
+            continue
+        lone = area <= MAX_FILL_RATIO * math.pi * r_in ** 2 + 2 * math.pi * r_in
+        key = (lone, -abs(radius - expected_radius_px) if expected_radius_px else radius)
+        if best_key is None or key > best_key:
+            x = (x0 + ix - 1 + 0.5) * scale - 0.5
+            y = (y0 + iy - 1 + 0.5) * scale - 0.5
+            best, best_key = (x, y, radius), key
+    return best
+
+
+class BallTracker:
+    """Frame-by-frame tracker; feed frames in order to :meth:`update`.
+
+    Parameters
+    ----------
+    background : Background
+        The static scene.
+    expected_radius_px : float, optional
+        Expected ball radius, px; learnt from the first ``ok`` frames when not given.
+    duplicate_tolerance_grey : float
+        Mean absolute difference to the previous frame, grey levels, at or below which a frame is
+        a duplicate.
+    """
+
+    def __init__(self, background, expected_radius_px=None, duplicate_tolerance_grey=DUPLICATE_TOLERANCE_GREY):
+        self.background = background
+        self.height, self.width = background.grey.shape
+        self.expected_radius_px = expected_radius_px
+        self.duplicate_tolerance_grey = duplicate_tolerance_grey
+        self._radii = []
+        self._radius_ref = None
+        self._history = []  # (frame index, x, y) of the last found balls
+        self._previous = None
+        self._index = -1
+
+    @property
+    def radius_ref_px(self):
+        """The expected radius, px: the median of recent ``ok`` radii, else the given one."""
+        return self._radius_ref if self._radii else self.expected_radius_px
+
+    def _predict(self):
+        history = [h for h in self._history if self._index - h[0] <= 6]
+        if not history:
+            return None, 0.0
+        if len(history) >= 3:
+            (t0, x0, y0), (t1, x1, y1), (t2, x2, y2) = history[-3:]
+            t = self._index
+            l0 = (t - t1) * (t - t2) / ((t0 - t1) * (t0 - t2))
+            l1 = (t - t0) * (t - t2) / ((t1 - t0) * (t1 - t2))
+            l2 = (t - t0) * (t - t1) / ((t2 - t0) * (t2 - t1))
+            predicted = (l0 * x0 + l1 * x1 + l2 * x2, l0 * y0 + l1 * y1 + l2 * y2)
+        elif len(history) == 2:
+            (t0, x0, y0), (t1, x1, y1) = history
+            f = (self._index - t1) / (t1 - t0)
+            predicted = (x1 + f * (x1 - x0), y1 + f * (y1 - y0))
+        else:
+            predicted = history[-1][1:]
+        last = history[-1]
+        step = math.hypot(predicted[0] - last[1], predicted[1] - last[2])
+        return predicted, step
+
+    def _measure_around(self, frame, centre, half_size):
+        x_c, y_c = centre
+        x0 = max(int(math.floor(x_c - half_size)), 0)
+        y0 = max(int(math.floor(y_c - half_size)), 0)
+        x1 = min(int(math.ceil(x_c + half_size)) + 1, self.width)
+        y1 = min(int(math.ceil(y_c + half_size)) + 1, self.height)
+        if x1 - x0 < 3 or y1 - y0 < 3:
+            return None
+        grey = to_grey(frame[y0:y1, x0:x1])
+        edges = (x0 == 0, y0 == 0, x1 == self.width, y1 == self.height)
+        result = measure_ball(grey, self.background.grey[y0:y1, x0:x1], self.background.threshold_grey,
+                              (x_c - x0, y_c - y0), self.radius_ref_px, edges)
+        if result is None:
+            return None
+        return BallMeasurement(result.x_px + x0, result.y_px + y0, result.radius_px, result.quality,
+                               result.area_px2, result.truncated)
+
+    def _is_duplicate(self, frame, centre, half_size):
+        previous = self._previous
+        if previous is None or previous.shape != frame.shape:
+            return False
+        s = DUPLICATE_STRIDE_PX
+        sparse = np.abs(frame[::s, ::s, ...].astype(np.int16) - previous[::s, ::s, ...]).mean()
+        if sparse > self.duplicate_tolerance_grey:
+            return False
+        if centre is None:
+            return True
+        x0 = max(int(centre[0] - half_size), 0)
+        y0 = max(int(centre[1] - half_size), 0)
+        x1 = min(int(centre[0] + half_size) + 1, self.width)
+        y1 = min(int(centre[1] + half_size) + 1, self.height)
+        if x1 <= x0 or y1 <= y0:
+            return True
+        window = np.abs(frame[y0:y1, x0:x1].astype(np.int16) - previous[y0:y1, x0:x1]).mean()
+        return window <= self.duplicate_tolerance_grey
+
+    def update(self, frame):
+        """Measure the ball in the next frame.
+
+        Parameters
+        ----------
+        frame : numpy.ndarray
+            Grey or BGR frame, uint8, the background's size.
+
+        Returns
+        -------
+        (float, float, float, str)
+            Centre x, y and radius, px (NaN when lost or duplicate), and the quality flag.
+        """
+        frame = np.asarray(frame)
+        if frame.shape[:2] != (self.height, self.width):
+            raise ValueError(f"frame of shape {frame.shape} does not match the background {self.background.grey.shape}")
+        self._index += 1
+        predicted, step = self._predict()
+        radius = self.radius_ref_px or 10.0
+        half_size = 1.5 * radius + 2.0 * step + WINDOW_MARGIN_PX
+        duplicate = self._is_duplicate(frame, predicted, half_size)
+        self._previous = frame
+        if duplicate:
+            return math.nan, math.nan, math.nan, QUALITY_DUPLICATE
+
+        result = None
+        if predicted is not None:
+            result = self._measure_around(frame, predicted, half_size)
+            if result is not None and result.truncated:
+                result = self._measure_around(frame, (result.x_px, result.y_px), 2.0 * half_size)
+        if result is None or result.truncated:
+            grey = _grey_uint8(frame)
+            found = find_ball(to_grey(frame) if grey is None else grey, self.background, self.radius_ref_px)
+            if found is not None:
+                x, y, r = found
+                result = self._measure_around(frame, (x, y), 2.0 * max(r, self.radius_ref_px or r) + WINDOW_MARGIN_PX)
+                if result is not None and result.truncated:
+                    result = self._measure_around(frame, (result.x_px, result.y_px), 4.0 * r + 2 * WINDOW_MARGIN_PX)
+        if result is None:
+            return math.nan, math.nan, math.nan, QUALITY_LOST
+        self._history = (self._history + [(self._index, result.x_px, result.y_px)])[-3:]
+        if result.quality == QUALITY_OK:
+            self._radii = (self._radii + [result.radius_px])[-15:]
+            self._radius_ref = float(np.median(self._radii))
+        return result.x_px, result.y_px, result.radius_px, result.quality
+
+
+def _found_or_raise(table, source):
+    if not table["quality"].isin([QUALITY_OK, QUALITY_PARTIAL, QUALITY_OCCLUDED]).any():
+        raise InputError(f"{source}: the ball was never found (no round foreground blob in {len(table)} frames)")
+    return table
+
+
+def _run(frames, background, expected_radius_px):
+    tracker = BallTracker(background, expected_radius_px)
+    rows = [tracker.update(frame) for frame in frames]
+    return rows
+
+
+def _table(rows, times_s):
+    x, y, r, quality = zip(*rows) if rows else ((), (), (), ())
+    return pd.DataFrame({"frame": np.arange(len(rows)), "time_s": np.asarray(times_s, float),
+                         "x_px": np.asarray(x, float), "y_px": np.asarray(y, float),
+                         "radius_px": np.asarray(r, float), "quality": list(quality)}, columns=COLUMNS)
+
+
+def _spread(count, samples):
+    return np.unique(np.round(np.linspace(0, count - 1, min(samples, count))).astype(int))
+
+
+def track_frames(frames, times_s, expected_radius_px=None, *, background=None, source="frames"):
+    """Track the ball through frames already in memory.
+
+    Parameters
+    ----------
+    frames : sequence or iterable of numpy.ndarray
+        Grey (height, width) or BGR (height, width, 3) uint8 frames in order. A sequence (list,
+        array) is indexed to sample the background; any other iterable is first read into a list.
+    times_s : array_like
+        Time of each frame, s.
+    expected_radius_px : float, optional
+        Expected ball radius, px.
+    background : Background, optional
+        The static scene; by default the median of ``BACKGROUND_SAMPLES`` frames spread over the
+        clip.
+    source : str
+        Name of the recording in error messages.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One row per frame: ``frame``, ``time_s`` (s), ``x_px``, ``y_px``, ``radius_px`` (px) and
+        ``quality`` (see the module documentation).
+
+    Raises
+    ------
+    InputError
+        When there are no frames or the ball is never found.
+    """
+    if not isinstance(frames, (Sequence, np.ndarray)):
+        frames = list(frames)
+    times_s = np.asarray(times_s, float)
+    if len(frames) == 0:
+        raise InputError(f"{source}: no frames")
+    if times_s.shape != (len(frames),):
+        raise ValueError(f"{len(frames)} frames but {times_s.size} times")
+    if background is None:
+        background = estimate_background([frames[i] for i in _spread(len(frames), BACKGROUND_SAMPLES)])
+    table = _table(_run(frames, background, expected_radius_px), times_s)
+    table.attrs.update(source=str(source), noise_grey=background.noise_grey)
+    return _found_or_raise(table, source)
+
+
+def _read_samples(capture, indices):
+    samples = []
+    for index in indices:
+        if not capture.set(cv2.CAP_PROP_POS_FRAMES, int(index)):
+            return []
+        ok, frame = capture.read()
+        if not ok:
+            return []
+        samples.append(cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY) if frame.ndim == 3 else frame)
+    return samples
+
+
+def _video_background(path, frame_count, samples):
+    """Background of a video file: seek to frames spread over it (cheap for MJPG AVI)."""
+    if frame_count >= 1:
+        indices = _spread(int(frame_count), samples)
+        for backend in (cv2.CAP_OPENCV_MJPEG, cv2.CAP_ANY):
+            capture = cv2.VideoCapture(str(path), backend)
+            try:
+                if capture.isOpened():
+                    frames = _read_samples(capture, indices)
+                    if len(frames) == len(indices):
+                        return estimate_background(frames)
+            finally:
+                capture.release()
+    # unknown length or no seeking: decode everything, keeping frames at a doubling stride
+    capture = cv2.VideoCapture(str(path))
+    kept, stride, index = [], 1, 0
+    try:
+        while True:
+            ok, frame = capture.read()
+            if not ok:
+                break
+            if index % stride == 0:
+                kept.append((index, cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY) if frame.ndim == 3 else frame))
+                if len(kept) > 2 * samples:
+                    stride *= 2
+                    kept = [(i, f) for i, f in kept if i % stride == 0]
+            index += 1
+    finally:
+        capture.release()
+    if not kept:
+        return None
+    return estimate_background([f for _, f in kept])
+
+
+def _frame_times(stamps_ms, container_fps, capture_fps, path):
+    """Frame times, s, and how they were obtained."""
+    count = len(stamps_ms)
+    index = np.arange(count, dtype=float)
+    stamps = np.asarray(stamps_ms, float)
+    meaningful = (np.all(np.isfinite(stamps)) and (count == 1 or (np.all(np.diff(stamps) > 0) and stamps[-1] > 0)))
+    nominal = container_fps if container_fps and np.isfinite(container_fps) and container_fps > 0 else None
+    if meaningful:
+        times, how = stamps / 1000.0, "container time stamps"
+        if capture_fps:
+            if nominal is None:
+                return index / capture_fps, f"frame index / capture_fps {capture_fps:g}"
+            times, how = times * nominal / capture_fps, f"container time stamps × {nominal:g} / {capture_fps:g} fps"
+        return times, how
+    if capture_fps:
+        return index / capture_fps, f"frame index / capture_fps {capture_fps:g}"
+    if nominal is None:
+        raise InputError(f"{path}: the video has neither frame time stamps nor a frame rate; pass capture_fps")
+    return index / nominal, f"frame index / container rate {nominal:g} fps"
+
+
+def track_video(path, capture_fps=None, expected_radius_px=None, *, background_samples=BACKGROUND_SAMPLES):
+    """Track the ball through a video file.
+
+    Frames are decoded once, in order, with :class:`cv2.VideoCapture` in a second thread (which
+    overlaps decoding and tracking where more than one core is available). The background is the
+    median of ``background_samples`` frames reached by seeking: cheap for MJPG AVI files (OpenCV's
+    own MJPEG reader), costlier for long-GOP codecs such as H.264, where FFmpeg's seek decodes
+    from a key frame, about 16 frames per sample.
+
+    Times come from the container's per-frame time stamps (``CAP_PROP_POS_MSEC``) when they
+    increase, else from the frame index and the container's frame rate.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The video file.
+    capture_fps : float, optional
+        The rate at which the camera captured the frames, frames/s, for slow-motion files whose
+        container rate is a playback rate (a 240 fps capture stored as 30 fps): container times
+        are scaled by ``container_fps / capture_fps``. Estimating it from the ball's gravitational
+        acceleration is done elsewhere.
+    expected_radius_px : float, optional
+        Expected ball radius, px.
+    background_samples : int
+        Frames in the background median.
+
+    Returns
+    -------
+    pandas.DataFrame
+        As :func:`track_frames`; ``attrs`` holds ``source``, ``container_fps``, ``capture_fps``,
+        ``time_source``, ``frame_count_header`` and ``noise_grey``.
+
+    Raises
+    ------
+    InputError
+        For a missing, unreadable or corrupt file, a file without frames, or a ball never found.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise InputError(f"{path}: file not found")
+    if capture_fps is not None and not capture_fps > 0:
+        raise InputError(f"{path}: capture_fps must be positive, got {capture_fps}")
+    capture = cv2.VideoCapture(str(path))
+    if not capture.isOpened():
+        raise InputError(f"{path}: cannot be opened as a video (unreadable or corrupt file)")
+    container_fps = float(capture.get(cv2.CAP_PROP_FPS))
+    frame_count = float(capture.get(cv2.CAP_PROP_FRAME_COUNT))
+    ok, first = capture.read()
+    if not ok:
+        capture.release()
+        raise InputError(f"{path}: no frame could be decoded (empty or corrupt video)")
+    stamps = [capture.get(cv2.CAP_PROP_POS_MSEC)]
+    # decode in a second thread (OpenCV releases the GIL) while the background is estimated and
+    # the ball tracked in this one
+    reader = _FrameReader(capture)
+    reader.start()
+    try:
+        background = _video_background(path, frame_count, background_samples)
+        if background is None or background.grey.shape != first.shape[:2]:
+            raise InputError(f"{path}: the frames could not be decoded consistently (corrupt video)")
+        tracker = BallTracker(background, expected_radius_px)
+        rows = [tracker.update(first)]
+        for frame, stamp in reader:
+            stamps.append(stamp)
+            rows.append(tracker.update(frame))
+    finally:
+        reader.close()
+        capture.release()
+    times, how = _frame_times(stamps, container_fps, capture_fps, path)
+    table = _table(rows, times)
+    table.attrs.update(source=str(path), container_fps=container_fps, capture_fps=capture_fps,
+                       time_source=how, frame_count_header=frame_count, noise_grey=background.noise_grey)
+    return _found_or_raise(table, path)
+
+
+class _FrameReader(threading.Thread):
+    """Decode frames ahead of the tracker, at most ``depth`` of them; iterate for (frame, time_ms)."""
+
+    def __init__(self, capture, depth=16):
+        super().__init__(daemon=True)
+        self._capture = capture
+        self._queue = queue.Queue(maxsize=depth)
+        self._halt = threading.Event()
+
+    def run(self):
+        try:
+            while not self._halt.is_set():
+                ok, frame = self._capture.read()
+                if not ok:
+                    break
+                item = (frame, self._capture.get(cv2.CAP_PROP_POS_MSEC))
+                while not self._halt.is_set():
+                    try:
+                        self._queue.put(item, timeout=0.1)
+                        break
+                    except queue.Full:
+                        continue
+        finally:
+            self._queue.put(None)
+
+    def __iter__(self):
+        while True:
+            item = self._queue.get()
+            if item is None:
+                return
+            yield item
+
+    def close(self):
+        """Stop decoding and wait for the thread."""
+        self._halt.set()
+        while self.is_alive():
+            try:
+                self._queue.get(timeout=0.1)
+            except queue.Empty:
+                pass
