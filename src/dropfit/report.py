@@ -245,6 +245,43 @@ def _section_recording(fit):
     ])
 
 
+def _video_frame_html(trajectory):
+    """For a video: one frame with the tracked ball, the floor line and a 10 cm scale bar drawn on it."""
+    attrs = trajectory.attrs
+    if "video" not in attrs or "x" not in trajectory:
+        return ""
+    import cv2
+
+    scale = float(attrs["scale_m_per_px"])
+    tracked = np.flatnonzero(np.isfinite(trajectory["y"].values))
+    # the frame where the ball is highest after release shows it clear of hand and floor
+    index = int(tracked[len(tracked) // 3 + int(np.argmax(trajectory["y"].values[tracked[len(tracked) // 3:]]))]) \
+        if tracked.size else 0
+    capture = cv2.VideoCapture(str(attrs["video"]))
+    capture.set(cv2.CAP_PROP_POS_FRAMES, index)
+    ok, frame = capture.read()
+    capture.release()
+    if not ok:
+        return f"<p>The video frame {index} could not be read back for the overlay.</p>"
+    x_px = float(trajectory["x"].values[index]) / scale
+    y_px = -float(trajectory["y"].values[index]) / scale
+    radius_px = float(trajectory["radius"].values[index]) / scale
+    green, red = (40, 200, 40), (40, 40, 230)
+    cv2.circle(frame, (round(x_px), round(y_px)), round(radius_px), green, 2, cv2.LINE_AA)
+    cv2.drawMarker(frame, (round(x_px), round(y_px)), green, cv2.MARKER_CROSS, 12, 2)
+    if "floor_row_px" in attrs:
+        row = round(float(attrs["floor_row_px"]))
+        cv2.line(frame, (0, row), (frame.shape[1] - 1, row), red, 1, cv2.LINE_AA)
+    bar_px = 0.1 / scale
+    cv2.line(frame, (20, 30), (20 + round(bar_px), 30), red, 3)
+    cv2.putText(frame, "10 cm", (20, 22), cv2.FONT_HERSHEY_SIMPLEX, 0.6, red, 2, cv2.LINE_AA)
+    ok, png = cv2.imencode(".png", frame)
+    image = base64.b64encode(png.tobytes()).decode("ascii")
+    return (f"<p>Frame {index} at {float(trajectory['time'].values[index]):.4f} s: tracked ball (green), floor "
+            f"(red line), 10 cm at the calibrated scale {1e3 * scale:.4f} mm/px (red bar).</p>\n"
+            f'<img alt="video frame with the tracked ball" src="data:image/png;base64,{image}">')
+
+
 def _section_result(fit):
     restitution = fit["restitution"]
     e = restitution["e"]
@@ -407,7 +444,7 @@ def recording_report_html(trajectory, flights, impacts, fit, png):
     sample_id = fit.get("sample_id") or trajectory.attrs.get("sample_id") or ""
     image = base64.b64encode(png).decode("ascii")
     sections = [
-        ("Recording", _section_recording(fit)),
+        ("Recording", _section_recording(fit) + _video_frame_html(trajectory)),
         ("Result", _section_result(fit)),
         ("e against impact speed", _section_speed(fit)),
         ("ITF verdict", _section_itf(fit)),
