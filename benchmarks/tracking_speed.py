@@ -1,0 +1,315 @@
+"""Tracking throughput against centre accuracy: dropfit, decode-only, HoughCircles and trackpy.
+
+The clip is a synthetic 1280 × 720, 240 fps Motion-JPEG video rendered by
+:func:`dropfit.video_synth.render_video` with the camera of the default clip
+``phone_240fps_tennis_254cm`` (1/480 s exposure, sensor noise σ = 3 grey levels, ±3 % lighting drift,
+0.5° tilt, JPEG quality 80) and its scene (seamed tennis ball, radius 8.4 px, textured background,
+ruler) but **without the hand**, so that the two peers, which know nothing of hands, are not
+penalised for it. The clip is 1.5 s long (360 frames) from 0.25 s, i.e. the ball rests at the top
+for 0.05 s, falls 254 cm, bounces once and rises again. It is written to a temporary directory.
+
+In one process, every pass runs each method below over the same file, each doing its own decoding
+(``cv2.VideoCapture`` read loop, as dropfit does):
+
+* ``decode only``      — read every frame and do nothing else: the floor no tracker can beat.
+* ``dropfit``          — :func:`dropfit.tracking.track_video` with its defaults (no radius hint;
+  it decodes in a second thread and estimates the background from 11 frames reached by seeking).
+* ``cv2.HoughCircles`` — per frame: grey, ``medianBlur`` (5 px), ``HoughCircles`` (``HOUGH_GRADIENT``,
+  dp 1, minDist 12 px, param1 100, param2 15, radii 6–11 px around the known 8.4 px); the circle
+  closest to the previous position is the ball.
+* ``trackpy.locate``   — per frame: grey (the ball is brighter than the background, so no
+  inversion), ``diameter`` = 2·radius + 1 rounded up to odd (19 px), ``minmass`` 5000 (the ball's
+  mass is 8 500–11 000 on this clip; the ruler's ticks reach 9 700, so mass alone cannot single it
+  out), ``percentile`` 99 (the default 64 refines ~500 noise maxima per frame: 4× slower, same
+  result), ``engine='python'`` (numba is not installed); the feature closest to the previous
+  position is the ball.
+
+Both peers start from the true centre of frame 0 (as if a user clicked the ball); dropfit gets no
+such help. The wall time of each method is the median over the passes (3 by default, after one
+untimed decode that warms the file cache); frames per second = frames / median wall time. Timing
+includes opening the file and decoding; the trackpy import and clip rendering are not timed.
+dropfit overlaps decoding (in its reader thread) with tracking, so with two or more cores its
+throughput approaches decode only; pinned to one core (``taskset -c 0``) it is lower (about 0.8 of
+decode only on the machine this was written on). The peers are single-threaded Python loops, as
+their documentation uses them.
+
+Accuracy, per method, over the frames where the ball is wholly inside the image (``visible``)
+and not touched by a hand (all 360 frames here): the centre error is the distance from the
+exposure-averaged centroid of the drawn ball (``centroid_x_px``, ``centroid_y_px`` of the ground
+truth). A frame is *lost* when there is no detection or its error exceeds 3 px; the centre RMS error
+is over the frames not lost (the console also prints the RMS over all detected frames).
+
+Target (issue): dropfit at ≥ 60 % of decode-only throughput and the most accurate (lowest centre
+RMS error) of dropfit, HoughCircles and trackpy.
+
+Output: a printed table, the ratio dropfit fps / decode-only fps and whether the target is met,
+``benchmarks/tracking_speed.csv`` (columns method, frames_per_second, centre_rms_error_px,
+frames_lost; decode only, not a tracker, leaves the last two empty) and ``benchmarks/tracking_speed.png`` (throughput against
+centre RMS error, log-log; decode only as a horizontal line).
+
+Run (about 2 minutes on 2 cores; needs trackpy: ``pip install -e '.[bench]'`` or
+``pip install trackpy``):
+
+    python benchmarks/tracking_speed.py [--repeats 3]
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import dataclasses
+import math
+import statistics
+import tempfile
+import time
+from pathlib import Path
+
+import cv2
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.ticker  # noqa: E402
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from dropfit.synth import simulate_drop  # noqa: E402
+from dropfit.tracking import track_video  # noqa: E402
+from dropfit.video_synth import default_clips, render_video  # noqa: E402
+
+HERE = Path(__file__).resolve().parent
+CSV_PATH = HERE / "tracking_speed.csv"
+PNG_PATH = HERE / "tracking_speed.png"
+
+CLIP = "phone_240fps_tennis_254cm"
+START_S = 0.25
+DURATION_S = 1.5
+SEED = 0
+LOST_ERROR_PX = 3.0
+TARGET_RATIO = 0.60
+
+DECODE, DROPFIT, HOUGH, TRACKPY = "decode only", "dropfit", "cv2.HoughCircles", "trackpy.locate"
+
+
+# --------------------------------------------------------------------------------------------------
+# The clip
+# --------------------------------------------------------------------------------------------------
+
+
+def render_clip(directory):
+    """Render the benchmark clip into ``directory``; returns (video path, ground-truth table)."""
+    clip = default_clips()[CLIP]
+    truth = simulate_drop(**clip["truth"])
+    scene = dataclasses.replace(clip["scene"], hand=False)
+    frames = render_video(truth, clip["camera"], scene, DURATION_S, SEED, Path(directory) / "clip.avi",
+                          start_s=START_S)
+    return Path(frames.attrs["video_path"]), frames
+
+
+# --------------------------------------------------------------------------------------------------
+# The methods: each returns (x_px, y_px) arrays, one per decoded frame, NaN when nothing was found
+# --------------------------------------------------------------------------------------------------
+
+
+def _frames(path):
+    capture = cv2.VideoCapture(str(path))
+    try:
+        while True:
+            ok, frame = capture.read()
+            if not ok:
+                return
+            yield frame
+    finally:
+        capture.release()
+
+
+def decode_only(path, **_):
+    """Decode every frame and do nothing else."""
+    count = sum(1 for _ in _frames(path))
+    return np.full(count, np.nan), np.full(count, np.nan)
+
+
+def dropfit_track(path, **_):
+    """dropfit.tracking.track_video with its defaults."""
+    table = track_video(path)
+    return table["x_px"].to_numpy(float), table["y_px"].to_numpy(float)
+
+
+def _closest(candidates_xy, previous):
+    """Row of ``candidates_xy`` (n × 2) closest to ``previous`` (x, y), or None when n = 0."""
+    if len(candidates_xy) == 0:
+        return None
+    distance = np.hypot(candidates_xy[:, 0] - previous[0], candidates_xy[:, 1] - previous[1])
+    return candidates_xy[int(np.argmin(distance))]
+
+
+def hough_track(path, start_xy, radius_px, **_):
+    """cv2.HoughCircles on every (grey, median-blurred) frame; the circle closest to the last one."""
+    min_r, max_r = int(math.floor(0.7 * radius_px)), int(math.ceil(1.3 * radius_px))
+    previous, xs, ys = start_xy, [], []
+    for frame in _frames(path):
+        grey = cv2.medianBlur(cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY), 5)
+        circles = cv2.HoughCircles(grey, cv2.HOUGH_GRADIENT, dp=1, minDist=max(2 * min_r, 1), param1=100,
+                                   param2=15, minRadius=min_r, maxRadius=max_r)
+        best = _closest(np.zeros((0, 3)) if circles is None else circles.reshape(-1, 3), previous)
+        if best is None:
+            xs.append(np.nan), ys.append(np.nan)
+        else:
+            previous = (float(best[0]), float(best[1]))
+            xs.append(previous[0]), ys.append(previous[1])
+    return np.array(xs), np.array(ys)
+
+
+def trackpy_track(path, start_xy, radius_px, invert=False, **_):
+    """trackpy.locate on every grey frame; the feature closest to the last one."""
+    import trackpy
+
+    diameter = int(math.ceil(2 * radius_px + 1))
+    diameter += 1 - diameter % 2  # odd
+    previous, xs, ys = start_xy, [], []
+    for frame in _frames(path):
+        grey = cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY)
+        features = trackpy.locate(grey, diameter, minmass=5000, percentile=99, invert=invert,
+                                  engine="python")
+        best = _closest(features[["x", "y"]].to_numpy(float), previous)
+        if best is None:
+            xs.append(np.nan), ys.append(np.nan)
+        else:
+            previous = (float(best[0]), float(best[1]))
+            xs.append(previous[0]), ys.append(previous[1])
+    return np.array(xs), np.array(ys)
+
+
+METHODS = {DECODE: decode_only, DROPFIT: dropfit_track, HOUGH: hough_track, TRACKPY: trackpy_track}
+
+
+# --------------------------------------------------------------------------------------------------
+# Scoring
+# --------------------------------------------------------------------------------------------------
+
+
+def score(x, y, truth):
+    """(RMS error of frames not lost px, RMS of all detected px, frames lost, frames evaluated)."""
+    tx = truth["centroid_x_px" if "centroid_x_px" in truth else "x_px"].to_numpy(float)
+    ty = truth["centroid_y_px" if "centroid_y_px" in truth else "y_px"].to_numpy(float)
+    if len(x) != len(tx):
+        raise RuntimeError(f"{len(x)} frames decoded, {len(tx)} rendered")
+    evaluated = np.ones(len(tx), bool)
+    if "visible" in truth:
+        evaluated &= truth["visible"].to_numpy(bool)
+    if "hand_overlap" in truth:
+        evaluated &= ~(truth["hand_overlap"].to_numpy(float) > 0)
+    error = np.hypot(x - tx, y - ty)[evaluated]
+    detected = np.isfinite(error)
+    kept = detected & (error <= LOST_ERROR_PX)
+    rms_kept = float(np.sqrt(np.mean(error[kept] ** 2))) if kept.any() else math.nan
+    rms_detected = float(np.sqrt(np.mean(error[detected] ** 2))) if detected.any() else math.nan
+    return rms_kept, rms_detected, int(evaluated.sum() - kept.sum()), int(evaluated.sum())
+
+
+# --------------------------------------------------------------------------------------------------
+# Main
+# --------------------------------------------------------------------------------------------------
+
+
+def _chart(results, path):
+    fig, ax = plt.subplots(figsize=(7.0, 6.0))
+    decode = results[DECODE]["fps"]
+    ax.axhline(decode, color="0.4", linestyle="--", label=f"decode only (floor): {decode:.0f} frames/s")
+    ax.axhline(TARGET_RATIO * decode, color="0.6", linestyle=":",
+               label=f"target: {TARGET_RATIO:.0%} of decode only")
+    markers = {DROPFIT: ("o", "C3"), HOUGH: ("s", "C0"), TRACKPY: ("^", "C2")}
+    for name, (marker, colour) in markers.items():
+        r = results[name]
+        ax.plot(r["rms"], r["fps"], marker=marker, color=colour, markersize=9, linestyle="none",
+                label=f"{name}: {r['fps']:.0f} frames/s, {r['rms']:.3f} px, {r['lost']} lost")
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    rms = [results[n]["rms"] for n in markers]
+    ax.set_xlim(min(rms) / 2, max(rms) * 2)
+    fps = [results[n]["fps"] for n in markers] + [decode]
+    ax.set_ylim(min(fps) / 2, max(fps) * 2)
+    ax.set_xlabel("centre RMS error (px, frames not lost)")
+    ax.set_ylabel("throughput (frames/s, incl. decoding)")
+    ax.set_title("Ball tracking on a 1280 × 720, 240 fps MJPEG clip (360 frames)")
+    ax.grid(True, which="both", alpha=0.3)
+    for axis in (ax.xaxis, ax.yaxis):
+        axis.set_major_formatter(matplotlib.ticker.FormatStrFormatter("%g"))
+        axis.set_minor_formatter(matplotlib.ticker.FormatStrFormatter("%g"))
+    ax.tick_params(which="both", labelsize=8)
+    ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.14), ncol=1)
+    fig.tight_layout()
+    fig.savefig(path, dpi=150)
+    plt.close(fig)
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--repeats", type=int, default=3, help="timed passes (median is reported), ≥ 3")
+    args = parser.parse_args(argv)
+    repeats = max(3, args.repeats)
+    import trackpy
+
+    trackpy.quiet()
+
+    with tempfile.TemporaryDirectory(prefix="dropfit-bench-") as directory:
+        print(f"rendering {DURATION_S} s of {CLIP} (no hand) ...", flush=True)
+        path, truth = render_clip(directory)
+        n_frames = len(truth)
+        start_xy = (float(truth["centroid_x_px"].iloc[0]), float(truth["centroid_y_px"].iloc[0]))
+        radius_px = float(truth["radius_px"].iloc[0])
+        kwargs = dict(start_xy=start_xy, radius_px=radius_px)
+        decode_only(path)  # warm the file cache
+
+        times = {name: [] for name in METHODS}
+        positions = {}
+        for rep in range(repeats):
+            for name, method in METHODS.items():
+                t0 = time.perf_counter()
+                x, y = method(path, **kwargs)
+                times[name].append(time.perf_counter() - t0)
+                if len(x) != n_frames:
+                    raise RuntimeError(f"{name}: {len(x)} frames, expected {n_frames}")
+                positions[name] = (x, y)
+            print(f"pass {rep + 1}/{repeats}: " + ", ".join(f"{n} {times[n][-1]:.2f} s" for n in METHODS),
+                  flush=True)
+
+    results = {}
+    for name in METHODS:
+        wall = statistics.median(times[name])
+        rms, rms_all, lost, evaluated = score(*positions[name], truth)
+        results[name] = dict(fps=n_frames / wall, wall=wall, rms=rms, rms_all=rms_all, lost=lost,
+                             evaluated=evaluated)
+    results[DECODE].update(rms=math.nan, rms_all=math.nan, lost=None)  # not a tracker
+
+    print(f"\n{n_frames} frames, 1280 × 720, {repeats} passes, {evaluated} frames evaluated\n")
+    header = f"{'method':<18} {'frames/s':>9} {'wall s':>8} {'RMS err px':>11} {'RMS all px':>11} {'lost':>5}"
+    print(header)
+    print("-" * len(header))
+    for name, r in results.items():
+        print(f"{name:<18} {r['fps']:9.1f} {r['wall']:8.3f} {r['rms']:11.4f} {r['rms_all']:11.4f} {'' if r['lost'] is None else r['lost']:>5}")
+
+    ratio = results[DROPFIT]["fps"] / results[DECODE]["fps"]
+    peers = (HOUGH, TRACKPY)
+    most_accurate = all(results[DROPFIT]["rms"] < results[p]["rms"] for p in peers)
+    no_more_lost = all(results[DROPFIT]["lost"] <= results[p]["lost"] for p in peers)
+    print(f"\ndropfit / decode only throughput: {ratio:.3f} (target ≥ {TARGET_RATIO:.2f})")
+    for p in peers:
+        print(f"{p} RMS / dropfit RMS: {results[p]['rms'] / results[DROPFIT]['rms']:.2f}; "
+              f"dropfit / {p} throughput: {results[DROPFIT]['fps'] / results[p]['fps']:.1f}")
+    met = ratio >= TARGET_RATIO and most_accurate and no_more_lost
+    print(f"most accurate of the three: {most_accurate} (frames lost no more than peers: {no_more_lost})")
+    print(f"target met: {met}")
+
+    with CSV_PATH.open("w", newline="") as handle:
+        writer = csv.writer(handle)
+        writer.writerow(["method", "frames_per_second", "centre_rms_error_px", "frames_lost"])
+        for name, r in results.items():
+            writer.writerow([name, f"{r['fps']:.1f}", "" if math.isnan(r["rms"]) else f"{r['rms']:.4f}",
+                             "" if r["lost"] is None else r["lost"]])
+    _chart(results, PNG_PATH)
+    print(f"wrote {CSV_PATH.relative_to(HERE.parent)} and {PNG_PATH.relative_to(HERE.parent)}")
+    return 0 if met else 1
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
