@@ -142,21 +142,30 @@ def _closest(candidates_xy, previous):
     return candidates_xy[int(np.argmin(distance))]
 
 
-def hough_track(path, start_xy, radius_px, **_):
-    """cv2.HoughCircles on every (grey, median-blurred) frame; the circle closest to the last one."""
-    min_r, max_r = int(math.floor(0.7 * radius_px)), int(math.ceil(1.3 * radius_px))
+def _follow(path, start_xy, candidates_in):
+    """Per frame, the candidate (rows of x, y, … in px) closest to the last position; NaN where none."""
     previous, xs, ys = start_xy, [], []
     for frame in _frames(path):
-        grey = cv2.medianBlur(cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY), 5)
-        circles = cv2.HoughCircles(grey, cv2.HOUGH_GRADIENT, dp=1, minDist=max(2 * min_r, 1), param1=100,
-                                   param2=15, minRadius=min_r, maxRadius=max_r)
-        best = _closest(np.zeros((0, 3)) if circles is None else circles.reshape(-1, 3), previous)
+        best = _closest(candidates_in(frame), previous)
         if best is None:
             xs.append(np.nan), ys.append(np.nan)
         else:
             previous = (float(best[0]), float(best[1]))
             xs.append(previous[0]), ys.append(previous[1])
     return np.array(xs), np.array(ys)
+
+
+def hough_track(path, start_xy, radius_px, **_):
+    """cv2.HoughCircles on every (grey, median-blurred) frame; the circle closest to the last one."""
+    min_r, max_r = int(math.floor(0.7 * radius_px)), int(math.ceil(1.3 * radius_px))
+
+    def circles_in(frame):
+        grey = cv2.medianBlur(cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY), 5)
+        circles = cv2.HoughCircles(grey, cv2.HOUGH_GRADIENT, dp=1, minDist=max(2 * min_r, 1), param1=100,
+                                   param2=15, minRadius=min_r, maxRadius=max_r)
+        return np.zeros((0, 3)) if circles is None else circles.reshape(-1, 3)
+
+    return _follow(path, start_xy, circles_in)
 
 
 def trackpy_track(path, start_xy, radius_px, invert=False, **_):
@@ -165,18 +174,13 @@ def trackpy_track(path, start_xy, radius_px, invert=False, **_):
 
     diameter = int(math.ceil(2 * radius_px + 1))
     diameter += 1 - diameter % 2  # odd
-    previous, xs, ys = start_xy, [], []
-    for frame in _frames(path):
+
+    def features_in(frame):
         grey = cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY)
-        features = trackpy.locate(grey, diameter, minmass=5000, percentile=99, invert=invert,
-                                  engine="python")
-        best = _closest(features[["x", "y"]].to_numpy(float), previous)
-        if best is None:
-            xs.append(np.nan), ys.append(np.nan)
-        else:
-            previous = (float(best[0]), float(best[1]))
-            xs.append(previous[0]), ys.append(previous[1])
-    return np.array(xs), np.array(ys)
+        features = trackpy.locate(grey, diameter, minmass=5000, percentile=99, invert=invert, engine="python")
+        return features[["x", "y"]].to_numpy(float)
+
+    return _follow(path, start_xy, features_in)
 
 
 METHODS = {DECODE: decode_only, DROPFIT: dropfit_track, HOUGH: hough_track, TRACKPY: trackpy_track}
