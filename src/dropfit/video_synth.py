@@ -192,7 +192,8 @@ class Scene:
         Height in m of the ruler's top above the floor (it stands on the floor).
     tick_width_px : float
         Thickness of a tick mark in px; the tick at height h is centred on the row
-        ``image_row_of_floor_px − h·px_per_m``.
+        ``image_row_of_floor_px − h·px_per_m``. With a whole number of px the darkness-weighted
+        centroid of a tick's rows is exactly that row (any other width biases it by up to ~0.1 px).
     ruler_grey, tick_grey, floor_grey : float
         Grey levels (0–255) of the ruler face, its ticks and the floor band.
     hand : bool
