@@ -277,7 +277,7 @@ def short_label(row):
 
 
 def plot(rows, seed, floor_e, floor_tc):
-    fig, axes = plt.subplots(1, 2, figsize=(9, 4), constrained_layout=True)
+    fig, axes = plt.subplots(1, 2, figsize=(9, 4.8), constrained_layout=True)
     for ax, key, floor, ylabel in [(axes[0], "error_e", floor_e, "error in e, |e(c) − 0.745|  [–]"),
                                    (axes[1], "error_contact_time_s", floor_tc, "error in contact time  [s]")]:
         # the target box: ≥ 300× faster and ≥ 100× more accurate than the seed
@@ -305,7 +305,8 @@ def plot(rows, seed, floor_e, floor_tc):
         ax.set_xlim(min(times) / 3, max(times) * 8)
     axes[0].set_title("calibrating c for e = 0.745: error in e", fontsize=9)
     axes[1].set_title("contact time at the calibrated c", fontsize=9)
-    axes[0].legend(fontsize=6, loc="center right")
+    handles, labels = axes[0].get_legend_handles_labels()
+    fig.legend(handles, labels, fontsize=7, loc="outside lower center", ncol=3)
     fig.savefig(OUT / "contact_calibration.png", dpi=120)
 
 
