@@ -386,22 +386,45 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
 FREE_FALL_TOLERANCE = 0.15
 
 
+def shared_acceleration(pieces):
+    """Downward acceleration shared by several flights, each with its own start height and speed.
+
+    Linear least squares of y = a_j + b_j τ − A τ²/2 over the flights j (τ from each flight's first
+    sample), in the units of the data.
+
+    Parameters
+    ----------
+    pieces : list of (numpy.ndarray, numpy.ndarray)
+        Times (s) and heights (any length unit, up) of each flight.
+
+    Returns
+    -------
+    (float, float)
+        A and its standard error, in length units per s².
+    """
+    rows, targets = [], []
+    for j, (time, height) in enumerate(pieces):
+        tau = time - time[0]
+        block = np.zeros((tau.size, 2 * len(pieces) + 1))
+        block[:, 2 * j], block[:, 2 * j + 1], block[:, -1] = 1.0, tau, -0.5 * tau**2
+        rows.append(block)
+        targets.append(height)
+    design, target = np.vstack(rows), np.concatenate(targets)
+    coef, *_ = np.linalg.lstsq(design, target, rcond=None)
+    residual = target - design @ coef
+    dof = max(target.size - coef.size, 1)
+    covariance = (residual @ residual / dof) * np.linalg.pinv(design.T @ design)
+    return float(coef[-1]), float(np.sqrt(covariance[-1, -1]))
+
+
 def _check_free_fall(t, y, bounds, g, source):
     """Raise InputError unless the flights, fitted with a free curvature, fall with about g.
 
     Wrong units (time in ms under a ``time_s`` header, heights in cm under ``y_m``) change the
     apparent acceleration by orders of magnitude; catching it here names the cause.
     """
-    rows, targets = [], []
-    pieces = [(t > lo) & (t < hi) for lo, hi in bounds]
-    for j, inside in enumerate(pieces):
-        tt = t[inside] - t[inside][0]
-        block = np.zeros((tt.size, 2 * len(pieces) + 1))
-        block[:, 2 * j], block[:, 2 * j + 1], block[:, -1] = 1.0, tt, -0.5 * tt**2
-        rows.append(block)
-        targets.append(y[inside])
-    coef, *_ = np.linalg.lstsq(np.vstack(rows), np.concatenate(targets), rcond=None)
-    acceleration = coef[-1]
+    inside = [(t > lo) & (t < hi) for lo, hi in bounds]
+    acceleration, _ = shared_acceleration([(t[mask], y[mask]) for mask in inside])
     if not abs(acceleration / g - 1.0) < FREE_FALL_TOLERANCE:
         raise InputError(f"{source}: the flights fall with {acceleration:.4g} m/s², not g = {g:g} m/s²: check the "
                          f"units of time and height in the column names (or the scale of a px log)")

@@ -140,16 +140,16 @@ def make_trajectory(time_s, height_m, source, calibration, attrs=None):
 def scale_from_gravity(time_s, height_px, gravity_m_s2=STANDARD_GRAVITY_M_S2, source="log"):
     """Metres per pixel from the curvature of the flights: s = g / |ÿ_px|.
 
-    The flights are found in the pixel data and fitted jointly with a free curvature shared by all
-    of them (linear least squares). The sign of the curvature tells whether the pixel axis points
-    up or down.
+    The flights are found in the pixel data and fitted jointly with a free acceleration shared by all
+    of them (:func:`dropfit.analysis.shared_acceleration`). The axis points down if the ball starts
+    below its median position in pixel units (a drop starts high and ends low).
 
     Returns
     -------
     (float, float)
         Signed scale in m/px (negative for an axis pointing down) and its standard error in m/px.
     """
-    from .analysis import MIN_SAMPLES_PER_FLIGHT, estimate_noise, find_impacts, find_release
+    from .analysis import MIN_SAMPLES_PER_FLIGHT, estimate_noise, find_impacts, find_release, shared_acceleration
 
     valid = np.isfinite(height_px)
     t, y = time_s[valid], height_px[valid]
@@ -165,23 +165,11 @@ def scale_from_gravity(time_s, height_px, gravity_m_s2=STANDARD_GRAVITY_M_S2, so
     if not pieces:
         raise InputError(f"{source}: cannot calibrate pixels from gravity: no flight with at least "
                          f"{MIN_SAMPLES_PER_FLIGHT} samples between bounces; give scale_m_per_px")
-    columns, rows, targets = len(pieces), [], []
-    for j, (a, b) in enumerate(pieces):
-        tt = t[a:b] - t[a]
-        block = np.zeros((tt.size, 2 * columns + 1))
-        block[:, 2 * j], block[:, 2 * j + 1], block[:, -1] = 1.0, tt, tt**2
-        rows.append(block)
-        targets.append(up[a:b])
-    design, target = np.vstack(rows), np.concatenate(targets)
-    coef, *_ = np.linalg.lstsq(design, target, rcond=None)
-    residual = target - design @ coef
-    dof = max(target.size - coef.size, 1)
-    cov = (residual @ residual / dof) * np.linalg.pinv(design.T @ design)
-    curvature, curvature_se = coef[-1], np.sqrt(cov[-1, -1])
-    if curvature >= 0:
+    acceleration, acceleration_se = shared_acceleration([(t[a:b], up[a:b]) for a, b in pieces])
+    if acceleration <= 0:
         raise InputError(f"{source}: cannot calibrate pixels from gravity: the flights do not curve downwards")
-    scale = gravity_m_s2 / (-2.0 * curvature)
-    relative_se = curvature_se / -curvature
+    scale = gravity_m_s2 / acceleration
+    relative_se = acceleration_se / acceleration
     if relative_se > MAX_GRAVITY_SCALE_RELATIVE_SE:
         raise InputError(f"{source}: cannot calibrate pixels from gravity: the flights give the scale only to "
                          f"{100 * relative_se:.1f} %; give scale_m_per_px")
