@@ -292,6 +292,39 @@ def _fit_flights(t, y, bounds, with_drag, g, theta0):
     return model, model.fit(theta0), counts
 
 
+def detect_bounces(t, y, source="trajectory"):
+    """Noise, release and the lowest sample of every bounce: the segmentation every estimator starts from.
+
+    Parameters
+    ----------
+    t : numpy.ndarray
+        Sample times in s, increasing, without the samples whose height is missing.
+    y : numpy.ndarray
+        Heights (any length unit, up) at ``t``, no NaNs.
+    source : str
+        Name of the recording, used in error messages.
+
+    Returns
+    -------
+    (float, int, numpy.ndarray)
+        Noise standard deviation (unit of ``y``), index of the release sample and indices of the
+        lowest sample of each bounce.
+    """
+    if y.size < 3 * MIN_SAMPLES_PER_FLIGHT:
+        raise InputError(f"{source}: only {y.size} valid samples, too few to find a bounce")
+    noise = max(estimate_noise(y), _NOISE_FLOOR_FRACTION * float(np.ptp(y)))
+    release = find_release(y, noise)
+    if release is None:
+        raise InputError(f"{source}: the ball never falls (height stays within noise of its start)")
+    # lags up to ~10 ms: dense sampling through a contact that lasts a few milliseconds
+    sample_interval = float(np.median(np.diff(t)))
+    minima = find_impacts(y, noise, start=release + 1, max_lag=max(3, int(round(0.01 / sample_interval))))
+    if minima.size == 0:
+        raise InputError(f"{source}: no bounce found (no dip deeper than {IMPACT_DEPTH_IN_NOISE:g} noise "
+                         f"standard deviations after the release)")
+    return noise, release, minima
+
+
 def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="auto", contact_height_m=None,
                     source="trajectory"):
     """Segment a drop-test trajectory into flights, fit them and measure every impact.
@@ -323,19 +356,7 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
     y_all = np.asarray(height_m, dtype=float)
     valid = np.isfinite(y_all)
     t, y = t_all[valid], y_all[valid]
-    if y.size < 3 * MIN_SAMPLES_PER_FLIGHT:
-        raise InputError(f"{source}: only {y.size} valid samples, too few to find a bounce")
-    span = float(np.ptp(y))
-    noise = max(estimate_noise(y), _NOISE_FLOOR_FRACTION * span)
-    release = find_release(y, noise)
-    if release is None:
-        raise InputError(f"{source}: the ball never falls (height stays within noise of its start)")
-    # lags up to ~10 ms: dense sampling through a contact that lasts a few milliseconds
-    sample_interval = float(np.median(np.diff(t)))
-    minima = find_impacts(y, noise, start=release + 1, max_lag=max(3, int(round(0.01 / sample_interval))))
-    if minima.size == 0:
-        raise InputError(f"{source}: no bounce found (no dip deeper than {IMPACT_DEPTH_IN_NOISE:g} noise "
-                         f"standard deviations after the release)")
+    noise, release, minima = detect_bounces(t, y, source)
 
     # first pass: cut at the lowest samples, leaving them out (and, with a known contact height,
     # the samples pressed below it)
