@@ -26,9 +26,6 @@ from .analysis import (MIN_SAMPLES_PER_FLIGHT, _last_flight_end, _meeting_height
 from .errors import InputError
 from .physics import STANDARD_GRAVITY_M_S2
 
-_COLUMNS = ["impact", "t_impact_s", "e", "e_se"]
-
-
 def _bounce_samples(time_s, height_m, source):
     """Valid samples, then dropfit's segmentation of them (:func:`dropfit.analysis.detect_bounces`)."""
     height = np.asarray(height_m, dtype=float)
@@ -49,9 +46,8 @@ def _flight_slices(y, release, minima, noise):
 
 
 def _table(t_impact_s, e, e_se):
-    n = len(e)
-    return pd.DataFrame({"impact": np.arange(1, n + 1), "t_impact_s": t_impact_s, "e": e, "e_se": e_se},
-                        columns=_COLUMNS)
+    """The per-impact table every estimator returns."""
+    return pd.DataFrame({"impact": np.arange(1, len(e) + 1), "t_impact_s": t_impact_s, "e": e, "e_se": e_se})
 
 
 def peak_heights(time_s, height_m, contact_height_m, source="trajectory"):
