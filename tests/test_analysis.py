@@ -211,7 +211,8 @@ def test_scale_uncertainty_enters_heights_and_e(tennis_truth):
         z_with.append(error / first["h_after_se_m"])
         fit_only_se = np.sqrt(first["h_after_se_m"] ** 2 - first["h_after_scale_se_m"] ** 2)
         z_without.append(error / fit_only_se)
-        z_drop.append((scaled.summary["drop_height_m"] - tennis_truth.drop_height_m) / scaled.summary["drop_height_se_m"])
+        drop_error = scaled.summary["drop_height_m"] - tennis_truth.drop_height_m
+        z_drop.append(drop_error / scaled.summary["drop_height_se_m"])
         if seed == 0:  # the fit's share is the standard error without a scale term
             plain = analyse_bounces(log["time_s"], heights)
             assert fit_only_se == pytest.approx(plain.impacts["h_after_se_m"].iloc[0], rel=1e-6)

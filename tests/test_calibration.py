@@ -5,8 +5,8 @@ import cv2
 import numpy as np
 import pytest
 
-from dropfit.calibration import (CAPTURE_RATE_SNAP_TOLERANCE, COMMON_CAPTURE_RATES_FPS, SCALE_PRECEDENCE, choose_scale, infer_capture_rate,
-                                 ruler_scale)
+from dropfit.calibration import (CAPTURE_RATE_SNAP_TOLERANCE, COMMON_CAPTURE_RATES_FPS, SCALE_PRECEDENCE,
+                                 choose_scale, infer_capture_rate, ruler_scale)
 from dropfit.physics import STANDARD_GRAVITY_M_S2
 from dropfit.synth import simulate_drop
 from dropfit.video_synth import Camera, FrameRenderer, Scene, default_clips, render_background

@@ -317,10 +317,11 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
         Relative standard error (dimensionless) of the length scale that brought the heights to m
         (a video's px → m). Its effect on every quantity (heights scaled about the zero of
         ``height_m``, the fit's linearised response, a given contact height scaled with them) is added
-        to the covariance as a rank-one term, fully correlated between quantities. Heights take it
-        up; so does e, because with g known part of a scale error is absorbed by the drag parameter
-        (a +0.5 % scale moves a tennis ball's first e by about −0.005). The heights' share of their
-        standard error is also reported (``h_after_scale_se_m``, ``drop_height_scale_se_m``).
+        to the covariance as a rank-one term, fully correlated between quantities. Not only heights
+        take it up: with g known, part of a scale error is absorbed by the drag parameter, which
+        moves e, √(h_n/h_{n−1}), flight times and their ratios too (a +0.5 % scale moves a tennis
+        ball's first e by about −0.005). The heights' share of their standard error is also
+        reported (``h_after_scale_se_m``, ``drop_height_scale_se_m``).
 
     Returns
     -------

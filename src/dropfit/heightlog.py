@@ -233,7 +233,8 @@ def trajectory_from_log(path, scale_m_per_px=None, gravity_m_s2=STANDARD_GRAVITY
         extra["scale_m_per_px"] = float(scale_m_per_px)
         return make_trajectory(time, heights, path, "given scale in m/px", extra)
     scale, scale_se = scale_from_gravity(time, height, gravity_m_s2, source=str(path))
-    extra.update(scale_m_per_px=float(scale), scale_se_m_per_px=float(scale_se), scale_rel_se=float(scale_se / abs(scale)))
+    extra.update(scale_m_per_px=float(scale), scale_se_m_per_px=float(scale_se),
+                 scale_rel_se=float(scale_se / abs(scale)))
     return make_trajectory(time, height * scale, path, "scale from gravity (flight curvature)", extra)
 
 

@@ -249,8 +249,9 @@ def _itf(ball_type, summary, impacts, e, e_se, speed_law, nominal_k, drop_height
     drop, drop_scale_se = summary["drop_height_m"], summary.get("drop_height_scale_se_m", 0.0)
     first = impacts.iloc[0]
     first_scale_se = first.get("h_after_scale_se_m", 0.0)
-    rebound = itf_rebound(drop, np.sqrt(max(summary["drop_height_se_m"] ** 2 - drop_scale_se**2, 0.0)), first["h_after_m"],
-                          np.sqrt(max(first["h_after_se_m"] ** 2 - first_scale_se**2, 0.0)), e, e_se, drag_k,
+    drop_fit_se = np.sqrt(max(summary["drop_height_se_m"] ** 2 - drop_scale_se**2, 0.0))
+    first_fit_se = np.sqrt(max(first["h_after_se_m"] ** 2 - first_scale_se**2, 0.0))
+    rebound = itf_rebound(drop, drop_fit_se, first["h_after_m"], first_fit_se, e, e_se, drag_k,
                           summary["gravity_m_s2"], tolerance, drop_height_itf, e_source)
     if rebound["method"].startswith("measured"):
         ratio_scale_se = rebound["value"] * (first_scale_se / first["h_after_m"] - drop_scale_se / drop)

@@ -155,20 +155,14 @@ def trajectory_from_video(path, ball_radius_m=None, scale_m_per_px=None, capture
     background = video_background(path)
     scales = _independent_scales(background, radius_px, ball_radius_m, scale_m_per_px, ruler_tick_m, extra)
     time = _capture_time(table, rows, scales, capture_fps, gravity_m_s2, extra)
-    if extra["capture_fps_source"] == "inferred from gravity (not a common rate)":
+    if extra["capture_fps_source"] == _RAW_RATE_SOURCE:
         extra["gravity_calibration_failed"] = "gravity set the capture rate, so it gives no independent scale"
     else:
         _add_gravity_scale(scales, time, rows, gravity_m_s2, path, extra)
     if not scales:
         raise InputError(f"{path}: no scale: give the ball radius, a ruler's tick spacing or scale_m_per_px "
                          f"({extra.get('gravity_calibration_failed', 'gravity calibration failed')})")
-    chosen, disagreements = choose_scale(scales)
-    scale, scale_se = scales[chosen]
-    for name, (value, se) in scales.items():
-        extra[f"scale_{name}_m_per_px"], extra[f"scale_{name}_se_m_per_px"] = value, se
-    for name, disagreement in disagreements.items():
-        extra[f"scale_disagreement_{name}"] = disagreement
-    extra.update(scale_source=chosen, scale_m_per_px=scale, scale_rel_se=scale_se / scale)
+    chosen, scale = _record_scales(scales, extra)
     if extra.get("floor_m") is None and background is not None:
         median_radius_px = float(np.nanmedian(radius_px))
         floor_row = find_floor_row(background, float(np.nanmax(rows)) + median_radius_px, median_radius_px)
@@ -181,6 +175,8 @@ def trajectory_from_video(path, ball_radius_m=None, scale_m_per_px=None, capture
     return trajectory
 
 
+#: ``capture_fps_source`` of a capture rate inferred from gravity but near no common rate.
+_RAW_RATE_SOURCE = "inferred from gravity (not a common rate)"
 _CALIBRATION_TEXT = {"given": "given scale in m/px", "ruler": "scale from the ruler's ticks",
                      "gravity": "scale from gravity (flight curvature, drag included)",
                      "diameter": "scale from the ball's diameter"}
@@ -230,11 +226,24 @@ def _capture_time(table, rows, scales, capture_fps, gravity_m_s2, extra):
         return time
     rate = infer_capture_rate(fit.acceleration, scales[reference][0], file_fps, gravity_m_s2)
     source = "container" if rate["capture_fps"] == file_fps else "inferred from gravity" if rate["snapped"] \
-        else "inferred from gravity (not a common rate)"
+        else _RAW_RATE_SOURCE
     extra.update(capture_fps=rate["capture_fps"], capture_fps_source=source,
                  capture_fps_estimate=rate["estimate_fps"],
-                 capture_rate_note=f"{rate['why']} (length scale from the {reference})")
+                 capture_rate_note=f"{rate['why']}; length scale from the {reference}")
     return time * file_fps / rate["capture_fps"]
+
+
+def _record_scales(scales, extra):
+    """Choose the scale by precedence; store every scale, the others' disagreements and the chosen one's
+    relative standard error in ``extra``. Returns the chosen source and its scale in m/px."""
+    chosen, disagreements = choose_scale(scales)
+    scale, scale_se = scales[chosen]
+    for name, (value, se) in scales.items():
+        extra[f"scale_{name}_m_per_px"], extra[f"scale_{name}_se_m_per_px"] = value, se
+    for name, disagreement in disagreements.items():
+        extra[f"scale_disagreement_{name}"] = disagreement
+    extra.update(scale_source=chosen, scale_m_per_px=scale, scale_rel_se=scale_se / scale)
+    return chosen, scale
 
 
 def _add_gravity_scale(scales, time, rows, gravity_m_s2, path, extra):
