@@ -135,3 +135,34 @@ def test_ruler_takes_precedence_and_all_scales_disagree_with_it(slow_motion_clip
         expected = attrs[f"scale_{other}_m_per_px"] / attrs["scale_ruler_m_per_px"] - 1.0
         assert attrs[f"scale_disagreement_{other}"] == pytest.approx(expected)
     assert attrs["capture_fps"] == CAPTURE_FPS  # inferred with the ruler as the length standard
+
+
+#: The linearised scale terms must predict the change of a real 0.5 % rescaling to this fraction.
+SCALE_RESPONSE_RTOL = 0.05  # 1
+
+
+def test_scale_terms_predict_what_a_rescaled_recording_does(tennis_truth, tmp_path):
+    """Through the analyse and fit stages: the scale's share of the first rebound's and the ITF
+    rebound's standard errors (scale_rel_se = 0.5 %) matches how much they move when the same
+    recording's heights are really multiplied by 1.005."""
+    from conftest import sensor_log
+    from dropfit import stages
+    from dropfit.files import read_json, read_table
+    from dropfit.heightlog import make_trajectory
+
+    log = sensor_log(tennis_truth, seed=1, offset_m=0.0)
+    rel = 0.005
+    runs = {}
+    for name, factor, scale_rel_se in (("plain", 1.0, 0.0), ("with_se", 1.0, rel), ("rescaled", 1.0 + rel, 0.0)):
+        out = tmp_path / name
+        out.mkdir()
+        attrs = {"ball_radius_m": 0.0335, "ball_mass_kg": 0.057, "ball_type": "tennis", "scale_rel_se": scale_rel_se}
+        make_trajectory(log["time_s"], log["y_m"] * factor, "synthetic", "test", attrs).to_netcdf(out / "traj.nc")
+        stages.analyse(out / "traj.nc", out / "impacts.csv", out / "flights.csv", out / "analysis.json")
+        stages.fit(out / "analysis.json", out / "impacts.csv", out / "fit.json")
+        runs[name] = read_table(out / "impacts.csv").iloc[0], read_json(out / "fit.json")["itf"]["rebound_m"]
+    (first, itf), (first_se, itf_se), (first_moved, itf_moved) = runs["plain"], runs["with_se"], runs["rescaled"]
+    assert first_se["h_after_scale_se_m"] == pytest.approx(abs(first_moved["h_after_m"] - first["h_after_m"]),
+                                                            rel=SCALE_RESPONSE_RTOL)
+    itf_scale_se = np.sqrt(itf_se["se"] ** 2 - itf["se"] ** 2)
+    assert itf_scale_se == pytest.approx(abs(itf_moved["value"] - itf["value"]), rel=SCALE_RESPONSE_RTOL)
