@@ -188,3 +188,37 @@ def test_a_floor_given_too_low_is_refused(tennis_truth):
     true_contact = tennis_truth.radius_m + 0.2  # m
     with pytest.raises(InputError, match="floor_m"):
         analyse_bounces(log["time_s"], log["y_m"], contact_height_m=true_contact - 0.1, source="floor.csv")
+
+
+#: Relative standard error of a length scale (e.g. a video's px → m) in the scale-propagation test.
+SCALE_REL_SE = 0.005  # 1
+SCALE_TRIALS = 30
+
+
+def test_scale_uncertainty_enters_heights_and_e(tennis_truth):
+    """Heights scaled by a seeded random (1 + ε), ε ~ N(0, 0.5 %): with scale_rel_se the z-scores of the
+    first rebound height, the drop height and the first e against the truth scatter like N(0, 1);
+    without it the rebound's scatter far wider. (With g known a scale error is partly taken up by
+    the drag parameter, which moves e: e is not scale-free here.)"""
+    rng = np.random.default_rng(2026)
+    z_with, z_without, z_drop, z_e = [], [], [], []
+    for seed in range(SCALE_TRIALS):
+        log = sensor_log(tennis_truth, seed)
+        heights = log["y_m"].to_numpy() * (1.0 + SCALE_REL_SE * rng.standard_normal())
+        scaled = analyse_bounces(log["time_s"], heights, scale_rel_se=SCALE_REL_SE)
+        first = scaled.impacts.iloc[0]
+        error = first["h_after_m"] - tennis_truth.impacts["rebound_height_m"].iloc[0]
+        z_with.append(error / first["h_after_se_m"])
+        fit_only_se = np.sqrt(first["h_after_se_m"] ** 2 - first["h_after_scale_se_m"] ** 2)
+        z_without.append(error / fit_only_se)
+        drop_error = scaled.summary["drop_height_m"] - tennis_truth.drop_height_m
+        z_drop.append(drop_error / scaled.summary["drop_height_se_m"])
+        if seed == 0:  # the fit's share is the standard error without a scale term
+            plain = analyse_bounces(log["time_s"], heights)
+            assert fit_only_se == pytest.approx(plain.impacts["h_after_se_m"].iloc[0], rel=1e-6)
+        z_e.append((first["e"] - tennis_truth.impacts["e"].iloc[0]) / first["e_se"])
+    # 30 trials: the sample sd of N(0, 1) lies within (0.7, 1.35) with probability > 99 %
+    assert 0.7 < np.std(z_with) < 1.35
+    assert 0.7 < np.std(z_drop) < 1.35
+    assert 0.7 < np.std(z_e) < 1.35
+    assert np.std(z_without) > 3.0

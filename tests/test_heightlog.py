@@ -126,6 +126,27 @@ def test_px_scale_from_gravity_axis_up(vacuum_truth, tmp_path):
     assert trajectory.attrs["scale_m_per_px"] == pytest.approx(1.0 / PX_PER_M, rel=GRAVITY_SCALE_RTOL)
 
 
+#: The drag-aware gravity scale of a tennis ball falling from 254 cm must be this close to the truth.
+DRAG_GRAVITY_SCALE_RTOL = 1e-3  # 1 (0.1 %)
+
+
+def test_px_scale_from_gravity_accounts_for_drag(tennis_truth, tmp_path):
+    """A tennis ball with drag (C_d 0.55): the scale is within 0.1 %; a drag-free curvature is not."""
+    from dropfit.analysis import shared_acceleration
+    from dropfit.heightlog import flight_acceleration
+
+    frame = px_log(tennis_truth, noise_m=0.0005, seed=5)
+    trajectory = trajectory_from_log(write_log(tmp_path / "px_drag.csv", frame))
+    assert trajectory.attrs["scale_m_per_px"] == pytest.approx(-1.0 / PX_PER_M, rel=DRAG_GRAVITY_SCALE_RTOL)
+    # the same flights without the drag term curve less: the error this test guards against
+    time, rows = frame.iloc[:, 0].to_numpy(), frame.iloc[:, 1].to_numpy()
+    _, fit = flight_acceleration(time, rows)
+    assert fit.drag_model == "quadratic"
+    falling = (time > tennis_truth.release_time_s) & (time < tennis_truth.impacts["t_s"].iloc[0]) & np.isfinite(rows)
+    drag_free, _ = shared_acceleration([(time[falling], -rows[falling])])
+    assert abs(9.80665 / drag_free / PX_PER_M - 1.0) > 3 * DRAG_GRAVITY_SCALE_RTOL
+
+
 def test_px_gravity_scale_se_matches_scatter(vacuum_truth, tmp_path):
     """Over seeded 1 mm-noise logs each error is < 4 se, and the errors scatter like the reported se."""
     errors, ses = [], []

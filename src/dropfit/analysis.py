@@ -326,7 +326,7 @@ def detect_bounces(t, y, source="trajectory"):
 
 
 def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="auto", contact_height_m=None,
-                    source="trajectory"):
+                    source="trajectory", scale_rel_se=0.0):
     """Segment a drop-test trajectory into flights, fit them and measure every impact.
 
     Parameters
@@ -346,6 +346,15 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
         which assumes contact times short against the sample interval.
     source : str
         Name of the recording, used in error messages.
+    scale_rel_se : float
+        Relative standard error (dimensionless) of the length scale that brought the heights to m
+        (a video's px → m). Its effect on every quantity (heights scaled about the zero of
+        ``height_m``, the fit's linearised response, a given contact height scaled with them) is added
+        to the covariance as a rank-one term, fully correlated between quantities. Not only heights
+        take it up: with g known, part of a scale error is absorbed by the drag parameter, which
+        moves e, √(h_n/h_{n−1}), flight times and their ratios too (a +0.5 % scale moves a tennis
+        ball's first e by about −0.005). The heights' share of their standard error is also
+        reported (``h_after_scale_se_m``, ``drop_height_scale_se_m``).
 
     Returns
     -------
@@ -400,7 +409,7 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
         bic[False] = _bic(rival[1])
         if bic[False] <= bic[True]:
             fit = _refine(t, y, final_bounds, False, g, rival[1].x, contact_height_m, noise) or fit
-    return _report(fit, bic, t_all, y_all, noise, g, float(t[release]), source)
+    return _report(fit, bic, t_all, y_all, noise, g, float(t[release]), source, scale_rel_se)
 
 
 #: The flights' own curvature may differ from g by this fraction (drag changes it by a few %).
@@ -436,6 +445,73 @@ def shared_acceleration(pieces):
     dof = max(target.size - coef.size, 1)
     covariance = (residual @ residual / dof) * np.linalg.pinv(design.T @ design)
     return float(coef[-1]), float(np.sqrt(covariance[-1, -1]))
+
+
+@dataclass
+class SharedAcceleration:
+    """Result of :func:`shared_acceleration_with_drag`, in the length unit L of the data.
+
+    Attributes
+    ----------
+    acceleration, acceleration_se : float
+        Downward acceleration without drag (L/s²) and its standard error.
+    drag_k, drag_k_se : float
+        Quadratic-drag parameter (1/L) and its standard error; 0 for the model without drag.
+    drag_model : str
+        ``"quadratic"`` or ``"none"``, chosen by the Bayesian information criterion.
+    """
+
+    acceleration: float
+    acceleration_se: float
+    drag_k: float
+    drag_k_se: float
+    drag_model: str
+
+
+def shared_acceleration_with_drag(pieces):
+    """Free-fall acceleration shared by several flights, with a shared quadratic drag if the data ask.
+
+    Each flight is the closed form of :func:`dropfit.physics.flight_height` (its own apex time and
+    height) with a shared acceleration A and drag parameter k ≥ 0: ÿ = −A − k ẏ|ẏ|. Without drag
+    the curvature of a fall underestimates A by a fraction of order k v² / A (about 0.4 % for a
+    tennis ball from 254 cm). The drag term is kept only when the Bayesian information criterion
+    prefers it. k in 1/L does not depend on the time unit, so A scales as (time unit)⁻² alone.
+
+    Parameters
+    ----------
+    pieces : list of (numpy.ndarray, numpy.ndarray)
+        Times (s) and heights (any length unit L, up) of each flight.
+
+    Returns
+    -------
+    SharedAcceleration
+    """
+    start, _ = shared_acceleration(pieces)
+    theta0 = []
+    for time, height in pieces:
+        theta0.extend(_parabola_start(time, height, start))
+    n = len(pieces)
+
+    def residuals(theta):
+        k = theta[2 * n + 1] if theta.size > 2 * n + 1 else 0.0
+        return np.concatenate([flight_height(time, theta[2 * j + 1], theta[2 * j], k, theta[2 * n]) - height
+                               for j, (time, height) in enumerate(pieces)])
+
+    fits = {}
+    for model, extra in (("none", [start]), ("quadratic", [start, 0.0])):
+        theta = np.array(theta0 + extra)
+        lower = np.full(theta.size, -np.inf)
+        lower[2 * n] = 0.0  # the acceleration points down
+        if model == "quadratic":
+            lower[-1] = 0.0
+        fits[model] = least_squares(residuals, theta, bounds=(lower, np.inf), x_scale="jac", xtol=1e-12,
+                                    ftol=1e-12)
+    model = "quadratic" if _bic(fits["quadratic"]) < _bic(fits["none"]) else "none"
+    result = fits[model]
+    se = np.sqrt(np.clip(np.diag(_covariance(result)), 0.0, None))
+    drag = model == "quadratic"
+    return SharedAcceleration(float(result.x[2 * n]), float(se[2 * n]), float(result.x[-1]) if drag else 0.0,
+                              float(se[-1]) if drag else 0.0, model)
 
 
 def _check_free_fall(t, y, bounds, g, source):
@@ -522,17 +598,21 @@ def _unpack_quantities(vector, n_impacts):
     return values
 
 
-def _report(fit, bic, t_all, y_all, noise, g, release_time, source):
+def _report(fit, bic, t_all, y_all, noise, g, release_time, source, scale_rel_se):
     model, result, counts, quantities, bounds = fit
     theta = result.x
     cov_theta = _covariance(result)
     vector = quantities(theta)
     jac = _numerical_jacobian(quantities, theta, model.lower_bounds(theta.size))
-    cov = jac @ cov_theta @ jac.T
+    # the length scale's error moves every quantity together: a rank-one term in their covariance
+    scale_part = scale_rel_se * np.nan_to_num(_scale_sensitivity(quantities, result)) if scale_rel_se \
+        else np.zeros(vector.size)
+    cov = jac @ cov_theta @ jac.T + np.outer(scale_part, scale_part)
     se = np.sqrt(np.clip(np.diag(cov), 0.0, None))
     n = quantities.n_impacts
     values = _unpack_quantities(vector, n)
     errors = _unpack_quantities(se, n)
+    scale_errors = _unpack_quantities(np.abs(scale_part), n)
     y_apex, t_apex, k = model.unpack(theta)
     theta_se = np.sqrt(np.clip(np.diag(cov_theta), 0.0, None))
 
@@ -559,6 +639,8 @@ def _report(fit, bic, t_all, y_all, noise, g, release_time, source):
     impacts["h_before_se_m"] = errors["apex_height_m"][:-1]
     impacts["h_after_m"] = values["apex_height_m"][1:]
     impacts["h_after_se_m"] = errors["apex_height_m"][1:]
+    impacts["h_before_scale_se_m"] = scale_errors["apex_height_m"][:-1]
+    impacts["h_after_scale_se_m"] = scale_errors["apex_height_m"][1:]
     contact_ms = 1e3 * (values["t_liftoff_s"] - values["t_touchdown_s"])
     td = 1 + _IMPACT_COLUMNS.index("t_touchdown_s") * n
     lo = 1 + _IMPACT_COLUMNS.index("t_liftoff_s") * n
@@ -593,12 +675,29 @@ def _report(fit, bic, t_all, y_all, noise, g, release_time, source):
         "drop_apex_time_s": float(t_apex[0]),
         "drop_height_m": float(values["apex_height_m"][0]),
         "drop_height_se_m": float(errors["apex_height_m"][0]),
+        "drop_height_scale_se_m": float(scale_errors["apex_height_m"][0]),
         "rest_time_s": _rest_time(t_all, y_all, contact, noise, after=float(values["t_liftoff_s"][-1])),
         "gravity_m_s2": g,
         "n_impacts": n,
+        "scale_rel_se": float(scale_rel_se),
     }
     return BounceAnalysis(flights=flights, impacts=impacts, e_covariance=cov[e_index: e_index + n, e_index: e_index + n],
                           summary=summary)
+
+
+def _scale_sensitivity(quantities, result, step=1e-6):
+    """Derivative of the quantity vector with respect to the relative scale error ε.
+
+    A scale off by ε multiplies every height (about the trajectory's zero) and a given contact height
+    by 1 + ε. The fit answers with δθ = ε (JᵀJ)⁻¹Jᵀy (linearised, as in the covariance); with g known
+    it does not simply scale the heights, because the flight times also tell them.
+    """
+    response = np.linalg.lstsq(result.jac, quantities.model.y, rcond=None)[0]
+    moved = quantities
+    if quantities.given_contact_height is not None:
+        moved = _ImpactQuantities(quantities.model, quantities.given_contact_height * (1.0 + step))
+    moved.weights = quantities.weights
+    return (moved(result.x + step * response) - quantities(result.x)) / step
 
 
 def _se_name(column):

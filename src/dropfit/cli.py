@@ -52,6 +52,8 @@ def _parser():
     measure.add_argument("--gravity-m-s2", type=_positive, default=STANDARD_GRAVITY_M_S2, help="gravity in m/s²")
     measure.add_argument("--capture-fps", type=_positive,
                          help="capture rate in frames/s of a slow-motion video whose file states another rate")
+    measure.add_argument("--ruler-tick-m", type=_positive,
+                         help="video: spacing in m of the finest ticks of a ruler in the ball's plane (scale from it)")
     measure.add_argument("--floor-m", type=float,
                          help="height of the floor in the log's frame, in m (makes contact times measurable)")
 
@@ -101,7 +103,7 @@ def _run(args):
         stages.synth_video(args.name, args.out_dir, args.seed)
     elif args.command == "measure":
         stages.measure(args.log, args.out, args.sample_id, args.ball_radius_m, args.ball_mass_kg, args.ball_type,
-                       args.scale_m_per_px, args.gravity_m_s2, args.floor_m, args.capture_fps)
+                       args.scale_m_per_px, args.gravity_m_s2, args.floor_m, args.capture_fps, args.ruler_tick_m)
     elif args.command == "analyse":
         stages.analyse(args.trajectory, args.impacts, args.flights, args.summary, args.drag, args.gravity_m_s2)
     elif args.command == "fit":

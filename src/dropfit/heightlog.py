@@ -137,19 +137,31 @@ def make_trajectory(time_s, height_m, source, calibration, attrs=None):
     return dataset
 
 
-def scale_from_gravity(time_s, height_px, gravity_m_s2=STANDARD_GRAVITY_M_S2, source="log"):
-    """Metres per pixel from the curvature of the flights: s = g / |ÿ_px|.
+def flight_acceleration(time_s, height_px, source="log"):
+    """Downward acceleration of the flights in pixel units, with air drag where the data show it.
 
-    The flights are found in the pixel data and fitted jointly with a free acceleration shared by all
-    of them (:func:`dropfit.analysis.shared_acceleration`). The axis points down if the ball starts
-    below its median position in pixel units (a drop starts high and ends low).
+    The flights are found in the pixel data and fitted jointly with a free acceleration and a
+    quadratic drag shared by all of them (:func:`dropfit.analysis.shared_acceleration_with_drag`).
+    The axis points down if the ball starts below its median position in pixel units (a drop starts
+    high and ends low).
+
+    Parameters
+    ----------
+    time_s : numpy.ndarray
+        Sample times in s (of the file: a slow-motion file's container time gives its own acceleration).
+    height_px : numpy.ndarray
+        Positions in px along the vertical pixel axis, NaN where not measured.
+    source : str
+        Recording name for error messages.
 
     Returns
     -------
-    (float, float)
-        Signed scale in m/px (negative for an axis pointing down) and its standard error in m/px.
+    (float, dropfit.analysis.SharedAcceleration)
+        The axis direction (−1 for image rows, which point down, +1 for up) and the fit in px/s²
+        (drag k in 1/px).
     """
-    from .analysis import MIN_SAMPLES_PER_FLIGHT, estimate_noise, find_impacts, find_release, shared_acceleration
+    from .analysis import (MIN_SAMPLES_PER_FLIGHT, estimate_noise, find_impacts, find_release,
+                           shared_acceleration_with_drag)
 
     valid = np.isfinite(height_px)
     t, y = time_s[valid], height_px[valid]
@@ -165,11 +177,25 @@ def scale_from_gravity(time_s, height_px, gravity_m_s2=STANDARD_GRAVITY_M_S2, so
     if not pieces:
         raise InputError(f"{source}: cannot calibrate pixels from gravity: no flight with at least "
                          f"{MIN_SAMPLES_PER_FLIGHT} samples between bounces; give scale_m_per_px")
-    acceleration, acceleration_se = shared_acceleration([(t[a:b], up[a:b]) for a, b in pieces])
-    if acceleration <= 0:
+    fit = shared_acceleration_with_drag([(t[a:b], up[a:b]) for a, b in pieces])
+    if fit.acceleration <= 0:
         raise InputError(f"{source}: cannot calibrate pixels from gravity: the flights do not curve downwards")
-    scale = gravity_m_s2 / acceleration
-    relative_se = acceleration_se / acceleration
+    return sign, fit
+
+
+def scale_from_gravity(time_s, height_px, gravity_m_s2=STANDARD_GRAVITY_M_S2, source="log"):
+    """Metres per pixel from the curvature of the flights, drag included: s = g / A_px.
+
+    A_px is the flights' shared acceleration in px/s² from :func:`flight_acceleration`.
+
+    Returns
+    -------
+    (float, float)
+        Signed scale in m/px (negative for an axis pointing down) and its standard error in m/px.
+    """
+    sign, fit = flight_acceleration(time_s, height_px, source)
+    scale = gravity_m_s2 / fit.acceleration
+    relative_se = fit.acceleration_se / fit.acceleration
     if relative_se > MAX_GRAVITY_SCALE_RELATIVE_SE:
         raise InputError(f"{source}: cannot calibrate pixels from gravity: the flights give the scale only to "
                          f"{100 * relative_se:.1f} %; give scale_m_per_px")
@@ -207,7 +233,8 @@ def trajectory_from_log(path, scale_m_per_px=None, gravity_m_s2=STANDARD_GRAVITY
         extra["scale_m_per_px"] = float(scale_m_per_px)
         return make_trajectory(time, heights, path, "given scale in m/px", extra)
     scale, scale_se = scale_from_gravity(time, height, gravity_m_s2, source=str(path))
-    extra.update(scale_m_per_px=float(scale), scale_se_m_per_px=float(scale_se))
+    extra.update(scale_m_per_px=float(scale), scale_se_m_per_px=float(scale_se),
+                 scale_rel_se=float(scale_se / abs(scale)))
     return make_trajectory(time, height * scale, path, "scale from gravity (flight curvature)", extra)
 
 

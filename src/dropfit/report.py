@@ -241,8 +241,25 @@ def _section_recording(fit):
         ("SHA-256", f"<code>{_text(fit.get('source_sha256'))}</code>"),
         ("Ball", ball_text),
         ("Calibration", _text(fit.get("calibration"))),
+        *_scale_rows(fit.get("scale"), fit.get("time_base")),
         ("dropfit version", _text(fit.get("dropfit_version"))),
     ])
+
+
+def _scale_rows(scale, time_base):
+    """Definition rows for a px recording's scale (with the other scales' disagreement) and a video's time base."""
+    rows = []
+    if scale:
+        others = ", ".join(f"{name} {100 * value:+.2f} %" for name, value in (scale.get("disagreement") or {}).items())
+        rows.append(("Scale", f"{_num(scale['m_per_px'] * 1e3, '.5f')} mm/px from {_text(scale.get('source'))}, "
+                              f"relative standard error {_num(100 * scale.get('rel_se', 0.0), '.3f')} %"
+                              + (f"; other scales differ by {escape(others)}" if others else "")))
+        if scale.get("ruler_note"):
+            rows.append(("Ruler", _text(scale["ruler_note"])))
+    if time_base:
+        rows.append(("Capture rate", f"{_num(time_base['capture_fps'], '.6g')} frames/s "
+                                     f"({_text(time_base.get('source'))}): {_text(time_base.get('note'))}"))
+    return rows
 
 
 def _video_frame_html(trajectory):

@@ -53,17 +53,19 @@ def synth_video(name, out_dir, seed=0):
 
 
 def measure(log_path, out_path, sample_id=None, ball_radius_m=None, ball_mass_kg=None, ball_type=None,
-            scale_m_per_px=None, gravity_m_s2=STANDARD_GRAVITY_M_S2, floor_m=None, capture_fps=None):
+            scale_m_per_px=None, gravity_m_s2=STANDARD_GRAVITY_M_S2, floor_m=None, capture_fps=None,
+            ruler_tick_m=None):
     """Height log or video → trajectory NetCDF (heights in m, up; dropouts flagged).
 
     ``floor_m`` is the height of the floor surface in the log's frame, in m, where it is known;
-    ``capture_fps`` the capture rate of a slow-motion video whose container says otherwise.
+    ``capture_fps`` the capture rate of a slow-motion video whose container says otherwise;
+    ``ruler_tick_m`` the spacing in m of the finest ticks of a ruler filmed in the ball's plane.
     """
     attrs = {"sample_id": sample_id, "ball_radius_m": ball_radius_m, "ball_mass_kg": ball_mass_kg,
              "ball_type": ball_type, "floor_m": floor_m, "dropfit_version": __version__}
     if is_video(log_path):
         trajectory = trajectory_from_video(log_path, ball_radius_m, scale_m_per_px and abs(scale_m_per_px),
-                                           capture_fps, gravity_m_s2, attrs)
+                                           capture_fps, gravity_m_s2, attrs, ruler_tick_m)
     else:
         trajectory = trajectory_from_log(log_path, scale_m_per_px=scale_m_per_px, gravity_m_s2=gravity_m_s2,
                                          attrs=attrs)
@@ -82,7 +84,8 @@ def analyse(trajectory_path, impacts_path, flights_path, summary_path, drag="aut
         else None
     result = analyse_bounces(trajectory["time"].values, trajectory["y"].values, gravity_m_s2=gravity_m_s2,
                              drag=drag, contact_height_m=contact_height,
-                             source=attrs.get("source", str(trajectory_path)))
+                             source=attrs.get("source", str(trajectory_path)),
+                             scale_rel_se=float(attrs.get("scale_rel_se", 0.0)))
     summary = dict(result.summary)
     summary["e_covariance"] = result.e_covariance.tolist()
     summary["trajectory_attrs"] = {key: _plain(value) for key, value in trajectory.attrs.items()}
@@ -151,6 +154,8 @@ def fit(analysis_path, impacts_path, out_path, ball_type=None, itf_drop_height_m
         "dropfit_version": __version__,
         "ball": {"type": ball_type, "radius_m": attrs.get("ball_radius_m"), "mass_kg": attrs.get("ball_mass_kg")},
         "calibration": attrs.get("calibration"),
+        "scale": _scale_record(attrs),
+        "time_base": _time_base_record(attrs),
         "restitution": {"model": "constant", "why": why, **constant},
         "restitution_vs_speed": speed_law,
         "drag": drag,
@@ -166,6 +171,25 @@ def fit(analysis_path, impacts_path, out_path, ball_type=None, itf_drop_height_m
                    "gravity_m_s2": summary["gravity_m_s2"]},
     }
     write_json(out_path, result)
+
+
+def _scale_record(attrs):
+    """The length scale of a px recording: source, value, relative se and the other scales' disagreements."""
+    if "scale_m_per_px" not in attrs:
+        return None
+    prefix = "scale_disagreement_"
+    return {"source": attrs.get("scale_source", attrs.get("calibration")), "m_per_px": attrs["scale_m_per_px"],
+            "rel_se": attrs.get("scale_rel_se", 0.0),
+            "disagreement": {key[len(prefix):]: value for key, value in attrs.items() if key.startswith(prefix)},
+            "ruler_note": attrs.get("ruler_note")}
+
+
+def _time_base_record(attrs):
+    """A video's capture rate (frames/s), where it came from and why."""
+    if "capture_fps" not in attrs:
+        return None
+    return {"capture_fps": attrs["capture_fps"], "source": attrs.get("capture_fps_source"),
+            "note": attrs.get("capture_rate_note")}
 
 
 def _contact_time(summary, resolvable_rows):
@@ -220,9 +244,18 @@ def _itf(ball_type, summary, impacts, e, e_se, speed_law, nominal_k, drop_height
         itf_speed = float(speed_below_apex(drop_height_itf, drag_k, summary["gravity_m_s2"]))
         e, e_se = (float(x) for x in predict_e(speed_law["models"][speed_law["chosen"]], itf_speed))
         e_source = f"the {speed_law['chosen']} e(v) law at the ITF impact speed {itf_speed:.2f} m/s"
-    rebound = itf_rebound(summary["drop_height_m"], summary["drop_height_se_m"], impacts["h_after_m"].iloc[0],
-                          impacts["h_after_se_m"].iloc[0], e, e_se, drag_k, summary["gravity_m_s2"],
-                          tolerance, drop_height_itf, e_source)
+    # the length scale's share of the heights' errors is common to both: the measured rebound scaled by
+    # 254 cm / H, a ratio of two heights, keeps only the difference of their relative shares
+    drop, drop_scale_se = summary["drop_height_m"], summary.get("drop_height_scale_se_m", 0.0)
+    first = impacts.iloc[0]
+    first_scale_se = first.get("h_after_scale_se_m", 0.0)
+    drop_fit_se = np.sqrt(max(summary["drop_height_se_m"] ** 2 - drop_scale_se**2, 0.0))
+    first_fit_se = np.sqrt(max(first["h_after_se_m"] ** 2 - first_scale_se**2, 0.0))
+    rebound = itf_rebound(drop, drop_fit_se, first["h_after_m"], first_fit_se, e, e_se, drag_k,
+                          summary["gravity_m_s2"], tolerance, drop_height_itf, e_source)
+    if rebound["method"].startswith("measured"):
+        ratio_scale_se = rebound["value"] * (first_scale_se / first["h_after_m"] - drop_scale_se / drop)
+        rebound.update(estimate(rebound["value"], float(np.hypot(rebound["se"], ratio_scale_se)), "m"))
     verdict = itf_verdict(rebound, rebound_min, rebound_max)
     return {"verdict": verdict, "rebound_m": rebound, "limits": limits,
             "why": "pass: the 95 % interval lies inside the window; fail: wholly outside; "

@@ -1,18 +1,26 @@
-"""Videos: track the ball and calibrate pixels to metres, giving the same trajectory as a height log.
+"""Videos: track the ball and calibrate pixels to metres and frames to seconds, giving the same
+trajectory as a height log.
 
-The scale comes from gravity (the flights' shared curvature in px/s² over g) and from the ball's
-known diameter (its tracked radius in px against its radius in m). Both are reported with their
-disagreement; gravity's is used when it is precise enough (it measures the scale in the plane of
-the ball's motion, while the tracked radius depends on the edge threshold and blur), else the
-diameter's. A given scale overrides both.
+Scales come from up to four sources (:mod:`dropfit.calibration`): a given scale, a ruler's ticks
+in the background (with ``ruler_tick_m``), gravity (the flights' shared acceleration in px/s²,
+quadratic drag included, over g) and the ball's known diameter (its tracked radius in px against
+its radius in m). The one used is the first available in the precedence given > ruler > gravity >
+diameter (an order by accuracy: see :mod:`dropfit.calibration`); every other one is stored with its
+disagreement relative to it. The chosen scale's relative standard error (``scale_rel_se``; 0 for a
+given scale) goes with the trajectory, and the analysis adds it to the standard errors of heights.
+
+Time: a slow-motion file's container rate may be a playback rate. With a scale that does not
+come from gravity, the flights' acceleration in the file's time gives the capture rate, snapped to a
+common camera rate; ``capture_fps`` overrides it.
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from .calibration import SCALE_PRECEDENCE, choose_scale, infer_capture_rate, ruler_scale
 from .errors import InputError
-from .heightlog import make_trajectory, scale_from_gravity
+from .heightlog import flight_acceleration, make_trajectory, scale_from_gravity
 from .physics import STANDARD_GRAVITY_M_S2
 
 VIDEO_SUFFIXES = (".avi", ".mp4", ".mov", ".mkv", ".m4v")
@@ -48,17 +56,13 @@ def scale_from_diameter(radius_px, ball_radius_m):
     return scale, scale * median_se / median
 
 
-def find_floor_row(path, bottom_row_px, radius_px, samples=7):
-    """Image row (px, sub-pixel) of the floor's edge, searched within one ball radius of ``bottom_row_px``.
-
-    The floor is the strongest horizontal edge of the background (the per-pixel median of frames
-    spread over the clip) near the lowest row the ball's bottom reaches; its sub-pixel row is where
-    the row profile crosses halfway between the levels above and below it.
+def video_background(path, samples=7):
+    """Background grey image of a video: the per-pixel median of ``samples`` frames spread over it.
 
     Returns
     -------
-    float or None
-        The row, or None if no clear edge is there.
+    numpy.ndarray or None
+        Grey levels (height, width), or None if no frame could be read.
     """
     import cv2
 
@@ -73,9 +77,22 @@ def find_floor_row(path, bottom_row_px, radius_px, samples=7):
         if ok:
             frames.append(frame)
     capture.release()
-    if not frames:
-        return None
-    profile = estimate_background(frames).grey.mean(axis=1)
+    return estimate_background(frames).grey if frames else None
+
+
+def find_floor_row(background_grey, bottom_row_px, radius_px):
+    """Image row (px, sub-pixel) of the floor's edge, searched within one ball radius of ``bottom_row_px``.
+
+    The floor is the strongest horizontal edge of the background (:func:`video_background`) near
+    the lowest row the ball's bottom reaches; its sub-pixel row is where the row profile crosses
+    halfway between the levels above and below it.
+
+    Returns
+    -------
+    float or None
+        The row, or None if no clear edge is there.
+    """
+    profile = background_grey.mean(axis=1)
     low = max(int(bottom_row_px - radius_px), 8)
     high = min(int(bottom_row_px + radius_px), profile.size - 9)
     if high <= low:
@@ -93,7 +110,7 @@ def find_floor_row(path, bottom_row_px, radius_px, samples=7):
 
 
 def trajectory_from_video(path, ball_radius_m=None, scale_m_per_px=None, capture_fps=None,
-                          gravity_m_s2=STANDARD_GRAVITY_M_S2, attrs=None):
+                          gravity_m_s2=STANDARD_GRAVITY_M_S2, attrs=None, ruler_tick_m=None):
     """Track the ball in a drop-test video and return the trajectory dataset (heights in m, up).
 
     Parameters
@@ -103,19 +120,26 @@ def trajectory_from_video(path, ball_radius_m=None, scale_m_per_px=None, capture
     ball_radius_m : float, optional
         Ball radius in m, for the scale from the ball's diameter.
     scale_m_per_px : float, optional
-        Known scale in m/px (positive); overrides the calibration.
+        Known scale in m/px (positive); takes precedence over every calibration.
     capture_fps : float, optional
-        Capture rate in frames per second of a slow-motion file whose container rate differs.
+        Capture rate in frames per second of a slow-motion file whose container rate differs;
+        overrides the rate inferred from gravity.
     gravity_m_s2 : float
         Gravity in m/s².
     attrs : dict, optional
         Extra attributes for the dataset.
+    ruler_tick_m : float, optional
+        Spacing in m of the finest ticks of a ruler in the ball's plane, for the scale from the ruler.
 
     Returns
     -------
     xarray.Dataset
         As :func:`dropfit.heightlog.make_trajectory`, plus ``x`` (m) and ``radius`` (m); image rows
-        point down, so heights are −row × scale (the zero is the top image row).
+        point down, so heights are −row × scale (the zero is the top image row). The attributes
+        hold every scale found (``scale_<source>_m_per_px`` and ``_se_m_per_px``), the chosen
+        ``scale_source``, ``scale_m_per_px`` and its relative standard error ``scale_rel_se``, the
+        others' ``scale_disagreement_<source>`` (s / s_chosen − 1), and the time base
+        (``capture_fps``, ``capture_fps_source``, ``capture_rate_note``).
     """
     from .tracking import track_video
 
@@ -124,40 +148,110 @@ def trajectory_from_video(path, ball_radius_m=None, scale_m_per_px=None, capture
     usable = table["quality"].isin(_USABLE).to_numpy()
     if np.count_nonzero(usable) < 10:
         raise InputError(f"{path}: the ball is measured cleanly in only {np.count_nonzero(usable)} frames")
-    time = table["time_s"].to_numpy()
     rows = np.where(usable, table["y_px"].to_numpy(), np.nan)
+    radius_px = table["radius_px"].to_numpy()[usable]
     extra = dict(attrs or {})
     extra.update(video=str(path), frames=int(len(table)), frames_usable=int(np.count_nonzero(usable)))
-    scales = {}
-    if ball_radius_m:
-        scales["diameter"] = scale_from_diameter(table["radius_px"].to_numpy()[usable], ball_radius_m)
-    try:
-        signed, se = scale_from_gravity(time, rows, gravity_m_s2, source=str(path))
-        if signed < 0:  # image rows point down: a positive magnitude here
-            scales["gravity"] = (-signed, se)
-    except InputError as error:
-        extra["gravity_calibration_failed"] = str(error)
-    for name, (value, se) in scales.items():
-        extra[f"scale_{name}_m_per_px"], extra[f"scale_{name}_se_m_per_px"] = value, se
-    if "diameter" in scales and "gravity" in scales:
-        extra["scale_disagreement"] = scales["diameter"][0] / scales["gravity"][0] - 1.0
-    if scale_m_per_px is not None:
-        scale, calibration = float(scale_m_per_px), "given scale in m/px"
-    elif "gravity" in scales:
-        scale, calibration = scales["gravity"][0], "scale from gravity (flight curvature)"
-    elif "diameter" in scales:
-        scale, calibration = scales["diameter"][0], "scale from the ball's diameter"
+    background = video_background(path)
+    scales = _independent_scales(background, radius_px, ball_radius_m, scale_m_per_px, ruler_tick_m, extra)
+    time = _capture_time(table, rows, scales, capture_fps, gravity_m_s2, extra)
+    if extra["capture_fps_source"] == _RAW_RATE_SOURCE:
+        extra["gravity_calibration_failed"] = "gravity set the capture rate, so it gives no independent scale"
     else:
-        raise InputError(f"{path}: no scale: give the ball radius or scale_m_per_px "
+        _add_gravity_scale(scales, time, rows, gravity_m_s2, path, extra)
+    if not scales:
+        raise InputError(f"{path}: no scale: give the ball radius, a ruler's tick spacing or scale_m_per_px "
                          f"({extra.get('gravity_calibration_failed', 'gravity calibration failed')})")
-    extra["scale_m_per_px"] = scale
-    if extra.get("floor_m") is None:
-        radius_px = float(np.nanmedian(table["radius_px"].to_numpy()[usable]))
-        floor_row = find_floor_row(path, float(np.nanmax(rows)) + radius_px, radius_px)
+    chosen, scale = _record_scales(scales, extra)
+    if extra.get("floor_m") is None and background is not None:
+        median_radius_px = float(np.nanmedian(radius_px))
+        floor_row = find_floor_row(background, float(np.nanmax(rows)) + median_radius_px, median_radius_px)
         if floor_row is not None:
             extra["floor_row_px"] = floor_row
             extra["floor_m"] = -floor_row * scale  # heights are −row × scale
-    trajectory = make_trajectory(time, -rows * scale, path, calibration, extra)
+    trajectory = make_trajectory(time, -rows * scale, path, _CALIBRATION_TEXT[chosen], extra)
     trajectory["x"] = ("time", np.where(usable, table["x_px"].to_numpy(), np.nan) * scale, {"units": "m"})
     trajectory["radius"] = ("time", np.where(usable, table["radius_px"].to_numpy(), np.nan) * scale, {"units": "m"})
     return trajectory
+
+
+#: ``capture_fps_source`` of a capture rate inferred from gravity but near no common rate.
+_RAW_RATE_SOURCE = "inferred from gravity (not a common rate)"
+_CALIBRATION_TEXT = {"given": "given scale in m/px", "ruler": "scale from the ruler's ticks",
+                     "gravity": "scale from gravity (flight curvature, drag included)",
+                     "diameter": "scale from the ball's diameter"}
+
+
+def _independent_scales(background, radius_px, ball_radius_m, scale_m_per_px, ruler_tick_m, extra):
+    """Scales (m/px, se) that do not depend on the time base: given, ruler, diameter; notes in ``extra``."""
+    scales = {}
+    if scale_m_per_px is not None:
+        scales["given"] = (float(scale_m_per_px), 0.0)  # a given scale carries no stated uncertainty
+    if ruler_tick_m:
+        ruler, extra["ruler_note"] = ruler_scale(background, ruler_tick_m) if background is not None else \
+            (None, "no ruler: the background could not be read")
+        if ruler is not None:
+            scales["ruler"] = (ruler.scale_m_per_px, ruler.scale_se_m_per_px)
+            extra.update(ruler_tick_m=float(ruler_tick_m), ruler_ticks=ruler.n_ticks)
+    if ball_radius_m:
+        scales["diameter"] = scale_from_diameter(radius_px, ball_radius_m)
+    return scales
+
+
+def _capture_time(table, rows, scales, capture_fps, gravity_m_s2, extra):
+    """Frame times in s of capture; infer the capture rate from gravity when no rate is given.
+
+    With a scale independent of gravity, the flights' acceleration in the file's time tells the
+    capture rate (:func:`dropfit.calibration.infer_capture_rate`). Notes go into ``extra``.
+    """
+    time = table["time_s"].to_numpy()
+    file_fps = float(table.attrs.get("container_fps") or 0.0)
+    if not (np.isfinite(file_fps) and file_fps > 0):
+        file_fps = 1.0 / float(np.median(np.diff(time)))
+    if capture_fps:
+        extra.update(capture_fps=float(capture_fps), capture_fps_source="given",
+                     capture_rate_note=f"capture rate {capture_fps:g} fps given ({table.attrs.get('time_source')})")
+        return time
+    reference = next((name for name in SCALE_PRECEDENCE if name in scales), None)
+    if reference is None:
+        extra.update(capture_fps=file_fps, capture_fps_source="container",
+                     capture_rate_note="the file's rate is taken as the capture rate: no scale independent of "
+                                       "gravity (ball radius, ruler or given scale) to check it")
+        return time
+    try:
+        _, fit = flight_acceleration(time, rows, str(extra["video"]))
+    except InputError as error:
+        extra.update(capture_fps=file_fps, capture_fps_source="container",
+                     capture_rate_note=f"the file's rate is taken as the capture rate ({error})")
+        return time
+    rate = infer_capture_rate(fit.acceleration, scales[reference][0], file_fps, gravity_m_s2)
+    source = "container" if rate["capture_fps"] == file_fps else "inferred from gravity" if rate["snapped"] \
+        else _RAW_RATE_SOURCE
+    extra.update(capture_fps=rate["capture_fps"], capture_fps_source=source,
+                 capture_fps_estimate=rate["estimate_fps"],
+                 capture_rate_note=f"{rate['why']}; length scale from the {reference}")
+    return time * file_fps / rate["capture_fps"]
+
+
+def _record_scales(scales, extra):
+    """Choose the scale by precedence; store every scale, the others' disagreements and the chosen one's
+    relative standard error in ``extra``. Returns the chosen source and its scale in m/px."""
+    chosen, disagreements = choose_scale(scales)
+    scale, scale_se = scales[chosen]
+    for name, (value, se) in scales.items():
+        extra[f"scale_{name}_m_per_px"], extra[f"scale_{name}_se_m_per_px"] = value, se
+    for name, disagreement in disagreements.items():
+        extra[f"scale_disagreement_{name}"] = disagreement
+    extra.update(scale_source=chosen, scale_m_per_px=scale, scale_rel_se=scale_se / scale)
+    return chosen, scale
+
+
+def _add_gravity_scale(scales, time, rows, gravity_m_s2, path, extra):
+    """Add the scale from gravity (drag included) to ``scales``, or note in ``extra`` why there is none."""
+    try:
+        signed, se = scale_from_gravity(time, rows, gravity_m_s2, source=str(path))
+    except InputError as error:
+        extra["gravity_calibration_failed"] = str(error)
+        return
+    if signed < 0:  # image rows point down: a positive magnitude here
+        scales["gravity"] = (-signed, se)

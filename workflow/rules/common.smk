@@ -103,7 +103,8 @@ def measure_input(wildcards):
 
 
 def measure_args(wildcards):
-    """Optional ``dropfit measure`` flags: ball radius (m), mass (kg), type, scale (m/px), floor (m), g (m/s²)."""
+    """Optional ``dropfit measure`` flags: ball radius (m), mass (kg), type, scale (m/px), ruler tick (m),
+    floor (m), g (m/s²)."""
     row = sample_row(wildcards)
     return _options(
         [
@@ -111,6 +112,7 @@ def measure_args(wildcards):
             ("--ball-mass-kg", row.get("ball_mass_kg")),
             ("--ball-type", row.get("ball_type")),
             ("--scale-m-per-px", row.get("scale_m_per_px")),
+            ("--ruler-tick-m", row.get("ruler_tick_m")),
             ("--floor-m", row.get("floor_m")),
             ("--gravity-m-s2", config.get("gravity_m_s2")),
         ]

@@ -1,0 +1,168 @@
+"""Video calibration: ruler scale, scale precedence and disagreement, capture rate from gravity,
+against the renderer's known image scale and frame rate."""
+
+import cv2
+import numpy as np
+import pytest
+
+from dropfit.calibration import (CAPTURE_RATE_SNAP_TOLERANCE, COMMON_CAPTURE_RATES_FPS, SCALE_PRECEDENCE,
+                                 choose_scale, infer_capture_rate, ruler_scale)
+from dropfit.physics import STANDARD_GRAVITY_M_S2
+from dropfit.synth import simulate_drop
+from dropfit.video_synth import Camera, FrameRenderer, Scene, default_clips, render_background
+from dropfit.videolog import trajectory_from_video, video_background
+
+#: The ruler's scale must match the renderer's px/m to this relative accuracy.
+RULER_SCALE_RTOL = 1e-3  # 1 (0.1 %)
+#: ... and lie within this many of its own standard errors of it.
+RULER_ERROR_IN_SE = 4.0  # 1
+#: The gravity scale of the small test clip (short flights, 0.55 m drop) must be this close to the truth.
+CLIP_GRAVITY_SCALE_RTOL = 0.01  # 1 (1 %)
+
+#: A small, fast clip: a rubber ball dropped from 0.55 m beside a cm ruler, 700 px/m, 240 fps capture.
+PX_PER_M = 700.0  # px/m
+CAPTURE_FPS = 240.0  # frames/s
+BALL = dict(drop_height_m=0.55, radius_m=0.02, mass_kg=0.05, restitution_model={"kind": "constant", "e0": 0.8},
+            release_time_s=0.05)
+
+
+def _grey(image_bgr):
+    return cv2.cvtColor(np.clip(image_bgr, 0, 255).astype(np.uint8), cv2.COLOR_BGR2GRAY)
+
+
+def write_clip(path, container_fps, duration_s=1.0, scene=None, seed=0):
+    """Render the small clip captured at CAPTURE_FPS and store it as MJPEG AVI at ``container_fps``."""
+    camera = Camera(200, 480, CAPTURE_FPS, px_per_m=PX_PER_M, image_row_of_floor_px=460.0, noise_sigma=2.0,
+                    quality=90)
+    renderer = FrameRenderer(simulate_drop(**BALL), camera, scene or Scene(), seed)
+    writer = cv2.VideoWriter(str(path), cv2.VideoWriter_fourcc(*"MJPG"), container_fps, (200, 480))
+    for index in range(int(round(duration_s * CAPTURE_FPS))):
+        writer.write(renderer.render(index)[0])
+    writer.release()
+    return path
+
+
+@pytest.fixture(scope="module")
+def slow_motion_clip(tmp_path_factory):
+    """The small clip, captured at 240 fps and stored as a 30 fps file (8× slow motion)."""
+    return write_clip(tmp_path_factory.mktemp("calibration") / "slow_motion.avi", container_fps=30.0)
+
+
+def test_ruler_scale_from_a_rendered_video_matches_px_per_m(slow_motion_clip):
+    """Through MJPEG and noise: 1 cm ticks 7 px apart, the count checked against the 10 cm ticks."""
+    ruler, note = ruler_scale(video_background(slow_motion_clip), 0.01)
+    assert ruler is not None, note
+    assert ruler.ticks_per_step == 1
+    error = ruler.scale_m_per_px * PX_PER_M - 1.0
+    assert abs(error) < RULER_SCALE_RTOL
+    assert abs(error) < RULER_ERROR_IN_SE * ruler.scale_se_m_per_px * PX_PER_M
+
+
+def test_ruler_with_unresolved_fine_ticks_uses_the_5_and_10_cm_marks():
+    """At 250 px/m the 1 cm ticks are 2.5 px apart: the 5 cm ticks carry the scale, 5 ticks per step."""
+    camera = default_clips()["phone_240fps_tennis_254cm"]["camera"]
+    flat = Camera(camera.width_px, camera.height_px, px_per_m=camera.px_per_m,
+                  image_row_of_floor_px=camera.image_row_of_floor_px)
+    ruler, note = ruler_scale(_grey(render_background(flat, Scene(ruler_top_m=2.75))), 0.01)
+    assert ruler is not None, note
+    assert ruler.ticks_per_step == 5
+    assert ruler.scale_m_per_px * camera.px_per_m == pytest.approx(1.0, rel=RULER_SCALE_RTOL)
+
+
+def test_no_ruler_is_said_not_raised():
+    """A textured background without a ruler gives no scale and a sentence saying so."""
+    camera = Camera(320, 240, px_per_m=500.0, image_row_of_floor_px=230.0)
+    background = _grey(render_background(camera, Scene(ruler_width_px=0.0, background_texture=8.0)))
+    ruler, note = ruler_scale(background, 0.01)
+    assert ruler is None
+    assert note.startswith("no ruler")
+
+
+def test_choose_scale_follows_the_precedence_and_reports_each_disagreement():
+    scales = {"diameter": (0.00101, 1e-6), "gravity": (0.00099, 1e-7), "ruler": (0.00100, 2e-7)}
+    chosen, disagreement = choose_scale(scales)
+    assert chosen == "ruler"
+    assert disagreement == pytest.approx({"diameter": 0.01, "gravity": -0.01})
+    assert choose_scale({**scales, "given": (0.002, 0.0)})[0] == "given"
+    assert choose_scale({"diameter": scales["diameter"], "gravity": scales["gravity"]})[0] == "gravity"
+    assert SCALE_PRECEDENCE == ("given", "ruler", "gravity", "diameter")
+
+
+@pytest.mark.parametrize("capture_fps, file_fps", [(240.0, 30.0), (960.0, 30.0), (1000.0, 25.0)])
+def test_infer_capture_rate_snaps_to_the_common_rate(capture_fps, file_fps):
+    """A = g / s · (file/capture)² in file time; a 1 % scale error still snaps to the true rate."""
+    scale = 0.002  # m/px
+    acceleration = STANDARD_GRAVITY_M_S2 / scale * (file_fps / capture_fps) ** 2  # px/s² of file time
+    rate = infer_capture_rate(acceleration, scale * 1.01, file_fps, STANDARD_GRAVITY_M_S2)
+    assert rate["snapped"] and rate["capture_fps"] == capture_fps
+    assert rate["estimate_fps"] == pytest.approx(capture_fps / np.sqrt(1.01), rel=1e-12)
+
+
+def test_infer_capture_rate_keeps_a_matching_file_rate_and_an_uncommon_estimate():
+    scale = 0.002  # m/px
+    real_time = STANDARD_GRAVITY_M_S2 / scale  # px/s²
+    assert infer_capture_rate(real_time, scale * 1.02, 240.0, STANDARD_GRAVITY_M_S2)["capture_fps"] == 240.0
+    uncommon = 700.0  # fps, 27 % from the nearest common rate (960) and 40 % from 500
+    assert min(abs(np.asarray(COMMON_CAPTURE_RATES_FPS) / uncommon - 1)) > 10 * CAPTURE_RATE_SNAP_TOLERANCE
+    rate = infer_capture_rate(real_time * (30.0 / uncommon) ** 2, scale, 30.0, STANDARD_GRAVITY_M_S2)
+    assert not rate["snapped"]
+    assert rate["capture_fps"] == pytest.approx(uncommon, rel=1e-9)
+
+
+def test_slow_motion_file_gets_its_capture_rate_from_gravity(slow_motion_clip):
+    """240 fps stored at 30 fps: the diameter scale and the flights' acceleration say 240 fps."""
+    attrs = trajectory_from_video(slow_motion_clip, ball_radius_m=BALL["radius_m"]).attrs
+    assert attrs["capture_fps"] == CAPTURE_FPS
+    assert attrs["capture_fps_source"] == "inferred from gravity"
+    assert attrs["capture_fps_estimate"] == pytest.approx(CAPTURE_FPS, rel=CAPTURE_RATE_SNAP_TOLERANCE)
+    # with the capture rate fixed, gravity gives the scale again, as the independent check it is
+    assert attrs["scale_gravity_m_per_px"] * PX_PER_M == pytest.approx(1.0, rel=CLIP_GRAVITY_SCALE_RTOL)
+    assert set(attrs) >= {"scale_disagreement_diameter", "scale_rel_se"}
+    # --capture-fps overrides the inference
+    given = trajectory_from_video(slow_motion_clip, ball_radius_m=BALL["radius_m"], capture_fps=CAPTURE_FPS).attrs
+    assert given["capture_fps_source"] == "given"
+    assert given["scale_gravity_m_per_px"] == pytest.approx(attrs["scale_gravity_m_per_px"], rel=1e-9)
+
+
+def test_ruler_takes_precedence_and_all_scales_disagree_with_it(slow_motion_clip):
+    """With a ruler, ball radius and gravity: the ruler's scale is used, the others relative to it."""
+    trajectory = trajectory_from_video(slow_motion_clip, ball_radius_m=BALL["radius_m"], ruler_tick_m=0.01)
+    attrs = trajectory.attrs
+    assert attrs["scale_source"] == "ruler"
+    assert attrs["scale_m_per_px"] * PX_PER_M == pytest.approx(1.0, rel=RULER_SCALE_RTOL)
+    assert attrs["scale_rel_se"] == pytest.approx(attrs["scale_ruler_se_m_per_px"] / attrs["scale_ruler_m_per_px"])
+    for other in ("gravity", "diameter"):
+        expected = attrs[f"scale_{other}_m_per_px"] / attrs["scale_ruler_m_per_px"] - 1.0
+        assert attrs[f"scale_disagreement_{other}"] == pytest.approx(expected)
+    assert attrs["capture_fps"] == CAPTURE_FPS  # inferred with the ruler as the length standard
+
+
+#: The linearised scale terms must predict the change of a real 0.5 % rescaling to this fraction.
+SCALE_RESPONSE_RTOL = 0.05  # 1
+
+
+def test_scale_terms_predict_what_a_rescaled_recording_does(tennis_truth, tmp_path):
+    """Through the analyse and fit stages: the scale's share of the first rebound's and the ITF
+    rebound's standard errors (scale_rel_se = 0.5 %) matches how much they move when the same
+    recording's heights are really multiplied by 1.005."""
+    from conftest import sensor_log
+    from dropfit import stages
+    from dropfit.files import read_json, read_table
+    from dropfit.heightlog import make_trajectory
+
+    log = sensor_log(tennis_truth, seed=1, offset_m=0.0)
+    rel = 0.005
+    runs = {}
+    for name, factor, scale_rel_se in (("plain", 1.0, 0.0), ("with_se", 1.0, rel), ("rescaled", 1.0 + rel, 0.0)):
+        out = tmp_path / name
+        out.mkdir()
+        attrs = {"ball_radius_m": 0.0335, "ball_mass_kg": 0.057, "ball_type": "tennis", "scale_rel_se": scale_rel_se}
+        make_trajectory(log["time_s"], log["y_m"] * factor, "synthetic", "test", attrs).to_netcdf(out / "traj.nc")
+        stages.analyse(out / "traj.nc", out / "impacts.csv", out / "flights.csv", out / "analysis.json")
+        stages.fit(out / "analysis.json", out / "impacts.csv", out / "fit.json")
+        runs[name] = read_table(out / "impacts.csv").iloc[0], read_json(out / "fit.json")["itf"]["rebound_m"]
+    (first, itf), (first_se, itf_se), (first_moved, itf_moved) = runs["plain"], runs["with_se"], runs["rescaled"]
+    assert first_se["h_after_scale_se_m"] == pytest.approx(abs(first_moved["h_after_m"] - first["h_after_m"]),
+                                                            rel=SCALE_RESPONSE_RTOL)
+    itf_scale_se = np.sqrt(itf_se["se"] ** 2 - itf["se"] ** 2)
+    assert itf_scale_se == pytest.approx(abs(itf_moved["value"] - itf["value"]), rel=SCALE_RESPONSE_RTOL)
