@@ -32,6 +32,10 @@ MISFIT_P_VALUE = 1e-4
 _NOISE_FLOOR_FRACTION = 1e-6
 #: Number of passes of "assign samples to flights, fit, locate the contacts".
 _REFINEMENT_PASSES = 3
+#: Samples closer than this fraction of the sample interval to a fitted touchdown or lift-off are
+#: left out of the flights: a video frame is exposed for up to one frame interval around its time,
+#: so such a frame may show the ball already flattened against the floor.
+CONTACT_GUARD_INTERVALS = 0.5
 
 
 @dataclass
@@ -368,7 +372,8 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
 
     with_drag = drag != "off"
     theta0 = np.append(theta_no_drag, 1e-3) if with_drag else theta_no_drag
-    fit = _refine(t, y, bounds, with_drag, g, theta0, contact_height_m, noise)
+    guard_s = CONTACT_GUARD_INTERVALS * sample_interval
+    fit = _refine(t, y, bounds, with_drag, g, theta0, contact_height_m, noise, guard_s)
     if fit is None:
         raise InputError(f"{source}: the flights could not be fitted (too few samples between bounces)")
     bic = {with_drag: _bic(fit[1])}
@@ -378,7 +383,7 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
         rival = _fit_flights(t, y, final_bounds, False, g, result.x[:-1])
         bic[False] = _bic(rival[1])
         if bic[False] <= bic[True]:
-            fit = _refine(t, y, final_bounds, False, g, rival[1].x, contact_height_m, noise) or fit
+            fit = _refine(t, y, final_bounds, False, g, rival[1].x, contact_height_m, noise, guard_s) or fit
     return _report(fit, bic, t_all, y_all, noise, g, float(t[release]), source)
 
 
@@ -430,8 +435,12 @@ def _check_free_fall(t, y, bounds, g, source):
                          f"units of time and height in the column names (or the scale of a px log)")
 
 
-def _refine(t, y, bounds, with_drag, g, theta0, contact_height_m, noise):
-    """Alternate fitting and re-assigning samples by the fitted touchdown and lift-off times."""
+def _refine(t, y, bounds, with_drag, g, theta0, contact_height_m, noise, guard_s):
+    """Alternate fitting and re-assigning samples by the fitted touchdown and lift-off times.
+
+    A flight keeps the samples more than ``guard_s`` (s) after the lift-off before it and before
+    the touchdown after it.
+    """
     fitted = _fit_flights(t, y, bounds, with_drag, g, theta0)
     if fitted is None:
         return None
@@ -441,9 +450,9 @@ def _refine(t, y, bounds, with_drag, g, theta0, contact_height_m, noise):
         _set_weights(quantities, result)
         values = _unpack_quantities(quantities(result.x), quantities.n_impacts)
         y_apex, t_apex, k = model.unpack(result.x)
-        starts = np.concatenate([[t_apex[0] - 1e-9], values["t_liftoff_s"]])
+        starts = np.concatenate([[t_apex[0] - 1e-9], values["t_liftoff_s"] + guard_s])
         last_end = t_apex[-1] + time_from_apex(y_apex[-1] - values["contact_height_m"], k, g)
-        ends = np.append(values["t_touchdown_s"], last_end)
+        ends = np.append(values["t_touchdown_s"] - guard_s, last_end - guard_s)
         new_bounds = list(zip(starts, ends))
         refitted = _fit_flights(t, y, new_bounds, with_drag, g, result.x)
         if refitted is None:
@@ -454,7 +463,7 @@ def _refine(t, y, bounds, with_drag, g, theta0, contact_height_m, noise):
     if misfit is not None and misfit >= 2:
         # an impact too shallow to be detected hides inside this flight: stop the sequence before it
         theta = np.concatenate([result.x[: 2 * misfit], result.x[2 * model.n_flights:]])
-        return _refine(t, y, bounds[:misfit], with_drag, g, theta, contact_height_m, noise)
+        return _refine(t, y, bounds[:misfit], with_drag, g, theta, contact_height_m, noise, guard_s)
     quantities = _ImpactQuantities(model, contact_height_m)
     _set_weights(quantities, result)
     return model, result, counts, quantities, bounds

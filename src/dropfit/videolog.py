@@ -16,8 +16,6 @@ from .heightlog import make_trajectory, scale_from_gravity
 from .physics import STANDARD_GRAVITY_M_S2
 
 VIDEO_SUFFIXES = (".avi", ".mp4", ".mov", ".mkv", ".m4v")
-#: Frames the tracker measured cleanly enough to enter the trajectory.
-_USABLE = ("ok",)
 
 
 def is_video(path):
@@ -117,11 +115,11 @@ def trajectory_from_video(path, ball_radius_m=None, scale_m_per_px=None, capture
         As :func:`dropfit.heightlog.make_trajectory`, plus ``x`` (m) and ``radius`` (m); image rows
         point down, so heights are −row × scale (the zero is the top image row).
     """
-    from .tracking import track_video
+    from .tracking import track_video, usable_rows
 
     table = track_video(path, capture_fps=capture_fps)
     table = table[table["quality"] != "duplicate"]  # a repeated frame carries no new instant
-    usable = table["quality"].isin(_USABLE).to_numpy()
+    usable = usable_rows(table)
     if np.count_nonzero(usable) < 10:
         raise InputError(f"{path}: the ball is measured cleanly in only {np.count_nonzero(usable)} frames")
     time = table["time_s"].to_numpy()
