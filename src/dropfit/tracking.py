@@ -143,6 +143,9 @@ EDGE_OUTLIER_MIN_PX = 0.5
 #: residual are at most these, px.
 MAX_PARTIAL_CENTRE_SE_PX = 0.1
 MAX_PARTIAL_FIT_RMS_PX = 0.5
+#: ... and when its radius is within this of the clean frames' (a free-radius fit to a short arc can
+#: settle on a wrong circle with small residuals), px.
+MAX_PARTIAL_RADIUS_MISMATCH_PX = 0.5
 
 _ELLIPSE_3 = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (3, 3))
 _ELLIPSE_5 = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (5, 5))
@@ -402,6 +405,8 @@ def _fit_outline(coverage, points, centre, radius, radius_ref_px):
     The radius is held at ``radius_ref_px`` when given; points off the circle (a seam at the edge,
     a hand) are trimmed once. None when too few points remain.
     """
+    if len(points) < 8:
+        return None
     edge = _edge_points(coverage, points, centre)
     if len(edge) < 8:
         return None
@@ -844,24 +849,32 @@ def _table(rows, times_s):
                         columns=COLUMNS)
 
 
-def usable_rows(table):
+def usable_rows(table, radius_px=None):
     """Rows whose centre is good for a trajectory: ``ok``, and ``partial`` with a good circle fit.
 
     Parameters
     ----------
     table : pandas.DataFrame
         As returned by :func:`track_frames` or :func:`track_video`.
+    radius_px : float, optional
+        The ball's radius, px, when known; by default the median radius of the ``ok`` rows.
 
     Returns
     -------
     numpy.ndarray
         Boolean mask, one per row: ``ok``, or ``partial`` with ``centre_se_px`` ≤
-        ``MAX_PARTIAL_CENTRE_SE_PX`` and ``fit_rms_px`` ≤ ``MAX_PARTIAL_FIT_RMS_PX``.
+        ``MAX_PARTIAL_CENTRE_SE_PX``, ``fit_rms_px`` ≤ ``MAX_PARTIAL_FIT_RMS_PX`` and a radius
+        within ``MAX_PARTIAL_RADIUS_MISMATCH_PX`` of ``radius_px``. Without a radius (no ``ok``
+        row and none given) no ``partial`` row is usable.
     """
     quality = table["quality"].to_numpy()
+    ok = quality == QUALITY_OK
+    if radius_px is None:
+        radius_px = float(np.median(table["radius_px"].to_numpy()[ok])) if ok.any() else math.nan
     good_fit = ((table["centre_se_px"].to_numpy() <= MAX_PARTIAL_CENTRE_SE_PX)
-                & (table["fit_rms_px"].to_numpy() <= MAX_PARTIAL_FIT_RMS_PX))
-    return (quality == QUALITY_OK) | ((quality == QUALITY_PARTIAL) & good_fit)
+                & (table["fit_rms_px"].to_numpy() <= MAX_PARTIAL_FIT_RMS_PX)
+                & (np.abs(table["radius_px"].to_numpy() - radius_px) <= MAX_PARTIAL_RADIUS_MISMATCH_PX))
+    return ok | ((quality == QUALITY_PARTIAL) & good_fit)
 
 
 def _spread(count, samples):
