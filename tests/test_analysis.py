@@ -159,6 +159,29 @@ def test_contact_time_stiffness_and_damping_with_a_known_floor(sample_rate_hz, n
         assert abs(value - true_value) < 4 * se
 
 
+SLOPE_RELATIVE_TOLERANCE = 1e-3  # relative, numerical derivative against the closed form
+
+
+def test_contact_height_uncertainty_enters_contact_times():
+    """A given contact height with standard error σ_h (a floor found in a video) moves the touchdown by
+    σ_h / v_in and the lift-off by σ_h / v_out (dt/dh = 1/|dh/dt|): the contact time's variance grows by
+    ((1/v_in + 1/v_out) σ_h)², its value does not change."""
+    from dropfit.contact import LinearContact
+    from dropfit.synth import simulate_drop
+
+    radius, sigma_h = 0.0335, 2e-5  # m
+    truth = simulate_drop(1.0, radius, mass_kg=0.057, contact_model=LinearContact(3e4, 8.2))
+    log = sensor_log(truth, 13, sample_rate_hz=2000.0, noise_m=1e-4, offset_m=0.0, dropout_fraction=0.0)
+    log = log[log["time_s"] < 1.5]
+    plain = analyse_bounces(log["time_s"], log["y_m"], contact_height_m=radius).impacts
+    uncertain = analyse_bounces(log["time_s"], log["y_m"], contact_height_m=radius, contact_height_se_m=sigma_h).impacts
+    slope_s_per_m = 1 / plain["v_in_m_s"] + 1 / plain["v_out_m_s"]
+    expected_ms = np.hypot(plain["t_contact_se_ms"], 1e3 * slope_s_per_m * sigma_h)
+    assert np.allclose(uncertain["t_contact_se_ms"], expected_ms, rtol=SLOPE_RELATIVE_TOLERANCE)
+    assert np.array_equal(uncertain["t_contact_ms"], plain["t_contact_ms"])
+    assert np.all(uncertain["t_contact_se_ms"] > 2 * plain["t_contact_se_ms"])  # the case is not trivial
+
+
 def test_contact_is_not_resolvable_at_100_hz():
     """A 4 ms contact sampled every 10 ms: no contact time is claimed, even with the floor known."""
     from dropfit.contact import LinearContact

@@ -297,7 +297,7 @@ def _fit_flights(t, y, bounds, with_drag, g, theta0):
 
 
 def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="auto", contact_height_m=None,
-                    source="trajectory"):
+                    source="trajectory", contact_height_se_m=0.0):
     """Segment a drop-test trajectory into flights, fit them and measure every impact.
 
     Parameters
@@ -317,6 +317,9 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
         which assumes contact times short against the sample interval.
     source : str
         Name of the recording, used in error messages.
+    contact_height_se_m : float
+        Standard error in m of a given ``contact_height_m`` (e.g. of a floor found in a video); it
+        enters the standard errors of the touchdown, lift-off and contact times, speeds and e.
 
     Returns
     -------
@@ -384,7 +387,7 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
         bic[False] = _bic(rival[1])
         if bic[False] <= bic[True]:
             fit = _refine(t, y, final_bounds, False, g, rival[1].x, contact_height_m, noise, guard_s) or fit
-    return _report(fit, bic, t_all, y_all, noise, g, float(t[release]), source)
+    return _report(fit, bic, t_all, y_all, noise, g, float(t[release]), source, contact_height_se_m)
 
 
 #: The flights' own curvature may differ from g by this fraction (drag changes it by a few %).
@@ -510,13 +513,25 @@ def _unpack_quantities(vector, n_impacts):
     return values
 
 
-def _report(fit, bic, t_all, y_all, noise, g, release_time, source):
+def _contact_height_derivative(quantities, theta, step_m=1e-6):
+    """Derivative of the impact quantities with respect to a given contact height (central difference)."""
+    height = quantities.given_contact_height
+    upper = _ImpactQuantities(quantities.model, height + step_m)(theta)
+    lower = _ImpactQuantities(quantities.model, height - step_m)(theta)
+    return (upper - lower) / (2 * step_m)
+
+
+def _report(fit, bic, t_all, y_all, noise, g, release_time, source, contact_height_se_m):
     model, result, counts, quantities, bounds = fit
     theta = result.x
     cov_theta = _covariance(result)
     vector = quantities(theta)
     jac = _numerical_jacobian(quantities, theta, model.lower_bounds(theta.size))
     cov = jac @ cov_theta @ jac.T
+    height_derivative = np.zeros(vector.size)
+    if quantities.given_contact_height is not None and contact_height_se_m > 0:
+        height_derivative = _contact_height_derivative(quantities, theta)
+        cov = cov + np.outer(height_derivative, height_derivative) * contact_height_se_m ** 2
     se = np.sqrt(np.clip(np.diag(cov), 0.0, None))
     n = quantities.n_impacts
     values = _unpack_quantities(vector, n)
@@ -551,7 +566,10 @@ def _report(fit, bic, t_all, y_all, noise, g, release_time, source):
     td = 1 + _IMPACT_COLUMNS.index("t_touchdown_s") * n
     lo = 1 + _IMPACT_COLUMNS.index("t_liftoff_s") * n
     contact_jac = jac[lo: lo + n] - jac[td: td + n]
-    contact_se_ms = 1e3 * np.sqrt(np.clip(np.einsum("ij,jk,ik->i", contact_jac, cov_theta, contact_jac), 0, None))
+    contact_height_slope = height_derivative[lo: lo + n] - height_derivative[td: td + n]
+    contact_variance = (np.einsum("ij,jk,ik->i", contact_jac, cov_theta, contact_jac)
+                        + (contact_height_slope * contact_height_se_m) ** 2)
+    contact_se_ms = 1e3 * np.sqrt(np.clip(contact_variance, 0, None))
     if quantities.given_contact_height is not None and np.any(contact_ms < -3 * contact_se_ms - 1e-6):
         raise InputError(f"{source}: the flights meet above the given contact height (floor + radius): "
                          f"the floor is lower than that; check floor_m and the ball radius")

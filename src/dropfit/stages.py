@@ -82,7 +82,8 @@ def analyse(trajectory_path, impacts_path, flights_path, summary_path, drag="aut
         else None
     result = analyse_bounces(trajectory["time"].values, trajectory["y"].values, gravity_m_s2=gravity_m_s2,
                              drag=drag, contact_height_m=contact_height,
-                             source=attrs.get("source", str(trajectory_path)))
+                             source=attrs.get("source", str(trajectory_path)),
+                             contact_height_se_m=float(attrs.get("floor_se_m", 0.0)))
     summary = dict(result.summary)
     summary["e_covariance"] = result.e_covariance.tolist()
     summary["trajectory_attrs"] = {key: _plain(value) for key, value in trajectory.attrs.items()}

@@ -16,6 +16,10 @@ from .heightlog import make_trajectory, scale_from_gravity
 from .physics import STANDARD_GRAVITY_M_S2
 
 VIDEO_SUFFIXES = (".avi", ".mp4", ".mov", ".mkv", ".m4v")
+#: Standard error of the floor row found in the image relative to the tracked ball centres, px: the
+#: sub-pixel edge and centroid biases on the rendered 2000 fps close-up are up to 0.03 px. A real
+#: floor seen in perspective can be off by more: give floor_m when it matters.
+FLOOR_ROW_SE_PX = 0.05
 
 
 def is_video(path):
@@ -155,6 +159,7 @@ def trajectory_from_video(path, ball_radius_m=None, scale_m_per_px=None, capture
         if floor_row is not None:
             extra["floor_row_px"] = floor_row
             extra["floor_m"] = -floor_row * scale  # heights are −row × scale
+            extra["floor_se_m"] = FLOOR_ROW_SE_PX * scale
     trajectory = make_trajectory(time, -rows * scale, path, calibration, extra)
     trajectory["x"] = ("time", np.where(usable, table["x_px"].to_numpy(), np.nan) * scale, {"units": "m"})
     trajectory["radius"] = ("time", np.where(usable, table["radius_px"].to_numpy(), np.nan) * scale, {"units": "m"})
