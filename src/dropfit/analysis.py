@@ -32,10 +32,6 @@ MISFIT_P_VALUE = 1e-4
 _NOISE_FLOOR_FRACTION = 1e-6
 #: Number of passes of "assign samples to flights, fit, locate the contacts".
 _REFINEMENT_PASSES = 3
-#: Samples closer than this fraction of the sample interval to a fitted touchdown or lift-off are
-#: left out of the flights: a video frame is exposed for up to one frame interval around its time,
-#: so such a frame may show the ball already flattened against the floor.
-CONTACT_GUARD_INTERVALS = 0.5
 
 
 @dataclass
@@ -297,7 +293,7 @@ def _fit_flights(t, y, bounds, with_drag, g, theta0):
 
 
 def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="auto", contact_height_m=None,
-                    source="trajectory", contact_height_se_m=0.0):
+                    source="trajectory", contact_height_se_m=0.0, contact_guard_s=0.0):
     """Segment a drop-test trajectory into flights, fit them and measure every impact.
 
     Parameters
@@ -320,6 +316,10 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
     contact_height_se_m : float
         Standard error in m of a given ``contact_height_m`` (e.g. of a floor found in a video); it
         enters the standard errors of the touchdown, lift-off and contact times, speeds and e.
+    contact_guard_s : float
+        Samples closer than this (s) to a fitted touchdown or lift-off are left out of the flights.
+        0 for instantaneous samples; half the frame interval for video frames, which are exposed for
+        up to a frame interval around their time and may show the ball already flattened.
 
     Returns
     -------
@@ -375,7 +375,7 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
 
     with_drag = drag != "off"
     theta0 = np.append(theta_no_drag, 1e-3) if with_drag else theta_no_drag
-    guard_s = CONTACT_GUARD_INTERVALS * sample_interval
+    guard_s = float(contact_guard_s)
     fit = _refine(t, y, bounds, with_drag, g, theta0, contact_height_m, noise, guard_s)
     if fit is None:
         raise InputError(f"{source}: the flights could not be fitted (too few samples between bounces)")
