@@ -66,10 +66,12 @@ it fills less than ``MIN_ELLIPSE_FILL`` of that ellipse, or its area exceeds
 ``ATTACHED_AREA_FRACTION`` times the expected ball area. Once the ball is released, the hand is a
 separate blob, and its pixels are excluded from the ball's measurement.
 
-Limitations: the camera must not move; the ball, and the hand, must not stay at one place for
-more than about half the clip (else they become part of the median background: trim such clips);
-the ball must differ in grey level from the background (a red ball on a green wall of the same
-luminance is invisible); shading on the ball biases the edge coverage slightly.
+Limitations: the camera must not move; the hand must not stay at one place for more than about
+half the clip (else it becomes part of the median background: trim such clips; the ball is cut
+out, see above); the ball must differ in grey level from the background (a red ball on a green
+wall of the same luminance is invisible); shading on the ball biases the edge coverage slightly;
+a ball that is cut by the image edge in every frame has no clean radius to hold, and a circle
+fit with a free radius to a short arc is unreliable, so its frames are not usable.
 """
 
 from __future__ import annotations
