@@ -159,6 +159,57 @@ def test_contact_time_stiffness_and_damping_with_a_known_floor(sample_rate_hz, n
         assert abs(value - true_value) < 4 * se
 
 
+SLOPE_RELATIVE_TOLERANCE = 1e-3  # relative, numerical derivative against the closed form
+
+
+def test_contact_height_uncertainty_enters_contact_times():
+    """A given contact height with standard error σ_h (a floor found in a video) moves the touchdown by
+    σ_h / v_in and the lift-off by σ_h / v_out (dt/dh = 1/|dh/dt|): the contact time's variance grows by
+    ((1/v_in + 1/v_out) σ_h)², its value does not change."""
+    from dropfit.contact import LinearContact
+    from dropfit.synth import simulate_drop
+
+    radius, sigma_h = 0.0335, 2e-5  # m
+    truth = simulate_drop(1.0, radius, mass_kg=0.057, contact_model=LinearContact(3e4, 8.2))
+    log = sensor_log(truth, 13, sample_rate_hz=2000.0, noise_m=1e-4, offset_m=0.0, dropout_fraction=0.0)
+    log = log[log["time_s"] < 1.5]
+    plain = analyse_bounces(log["time_s"], log["y_m"], contact_height_m=radius).impacts
+    uncertain = analyse_bounces(log["time_s"], log["y_m"], contact_height_m=radius, contact_height_se_m=sigma_h).impacts
+    slope_s_per_m = 1 / plain["v_in_m_s"] + 1 / plain["v_out_m_s"]
+    expected_ms = np.hypot(plain["t_contact_se_ms"], 1e3 * slope_s_per_m * sigma_h)
+    assert np.allclose(uncertain["t_contact_se_ms"], expected_ms, rtol=SLOPE_RELATIVE_TOLERANCE)
+    assert np.array_equal(uncertain["t_contact_ms"], plain["t_contact_ms"])
+    assert np.all(uncertain["t_contact_se_ms"] > 2 * plain["t_contact_se_ms"])  # the case is not trivial
+
+
+FLATTENED_LIFT_M = 4e-5  # m, how much higher a frame exposed across touchdown shows the ball (0.12 px at 3000 px/m)
+
+
+def test_contact_guard_keeps_frames_exposed_across_a_contact_out_of_the_flights():
+    """Decision: a frame exposed across touchdown or lift-off (within half a frame interval of it) shows
+    the ball partly flattened, its centroid raised; with ``contact_guard_s`` = half the interval such
+    samples are left out of the flights and e and the contact time are unbiased."""
+    from dropfit.contact import LinearContact
+    from dropfit.synth import simulate_drop
+
+    radius, rate_hz = 0.0335, 2000.0
+    truth = simulate_drop(1.0, radius, mass_kg=0.057, contact_model=LinearContact(3e4, 8.2))
+    log = sensor_log(truth, 14, sample_rate_hz=rate_hz, noise_m=1e-6, offset_m=0.0, dropout_fraction=0.0)
+    first = truth.impacts.iloc[0]
+    log = log[(log["time_s"] > first["t_s"] - 0.012) & (log["time_s"] < first["t_s"] + 0.018)]  # a 30 ms close-up
+    t, y = log["time_s"].to_numpy(), log["y_m"].to_numpy().copy()
+    near_contact = np.minimum(np.abs(t - first["t_s"]), np.abs(t - first["t_liftoff_s"])) < 0.5 / rate_hz
+    assert near_contact.sum() == 2
+    y[near_contact] += FLATTENED_LIFT_M
+    guarded = analyse_bounces(t, y, drag="off", contact_height_m=radius,
+                              contact_guard_s=0.5 / rate_hz).impacts.iloc[0]
+    unguarded = analyse_bounces(t, y, drag="off", contact_height_m=radius).impacts.iloc[0]
+    true_ms = 1e3 * (first["t_liftoff_s"] - first["t_s"])
+    assert abs(guarded["e"] - first["e"]) < 4 * guarded["e_se"]
+    assert abs(guarded["t_contact_ms"] - true_ms) < 4 * guarded["t_contact_se_ms"]
+    # without the guard the two raised samples pull the contact time off (here by ~3 µs, 30 times more)
+    assert abs(unguarded["t_contact_ms"] - true_ms) > 10 * abs(guarded["t_contact_ms"] - true_ms)
+
 def test_contact_is_not_resolvable_at_100_hz():
     """A 4 ms contact sampled every 10 ms: no contact time is claimed, even with the floor known."""
     from dropfit.contact import LinearContact

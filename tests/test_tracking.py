@@ -4,11 +4,14 @@ import time
 
 import cv2
 import numpy as np
+import pandas as pd
 import pytest
 
 from dropfit.errors import InputError
-from dropfit.tracking import (QUALITY_DUPLICATE, QUALITY_LOST, QUALITY_OCCLUDED, QUALITY_OK, track_frames,
-                              track_video)
+from dropfit.synth import simulate_drop
+from dropfit.tracking import (QUALITY_DUPLICATE, QUALITY_LOST, QUALITY_OCCLUDED, QUALITY_OK, QUALITY_PARTIAL,
+                              track_frames, track_video, usable_rows)
+from dropfit.video_synth import Camera, FrameRenderer, Scene, default_clips
 
 CLEAN_RMS_TOLERANCE_PX = 0.1  # px, centre error RMS on clean frames
 NOISY_RMS_TOLERANCE_PX = 0.3  # px, centre error RMS with noise σ = 5 grey levels and motion blur
@@ -16,6 +19,7 @@ RADIUS_TOLERANCE_PX = 0.2  # px
 HAND_BIAS_TOLERANCE_PX = 0.3  # px, centre error of ok frames after release with a hand nearby
 HELD_TOLERANCE_PX = 1.5  # px, approximate centre of occluded (held) frames
 TIME_TOLERANCE_S = 1e-6  # s
+PARTIAL_RMS_TOLERANCE_PX = 0.3  # px, centre error RMS of partial (edge-cut) frames, noise σ = 2 grey levels
 NOISE_GREY = 5.0  # grey levels
 SUPERSAMPLING = 8  # sub-pixels per pixel and axis
 SUBFRAMES = 8  # sub-frames averaged for motion blur
@@ -269,3 +273,39 @@ def test_throughput_against_decoding(tmp_path, capsys):
     report(capsys, f"1280×720 MJPG, {n} frames: decode only {decode_fps:.0f} fps, track_video {track_fps:.0f} fps "
                    f"({100 * track_fps / decode_fps:.0f} % of decoding); ok frames {(table['quality'] == 'ok').sum()}")
     assert decoded == n == len(table)
+
+
+@pytest.fixture(scope="module")
+def edge_cut_clip():
+    """40 frames at 2000 fps of the tennis ball's first touchdown, its right side cut by the image edge.
+
+    Rendered by dropfit.video_synth (seam, textured background, sensor noise σ = 2, no codec) with the
+    drop line 20 px from the right edge: 13.5 px of the 33.5 px radius are outside the image.
+    """
+    clip = default_clips()["contact_2000fps_closeup"]
+    truth = simulate_drop(**clip["truth"])
+    camera = Camera(320, 240, 2000.0, 1e-4, px_per_m=1000.0, image_row_of_floor_px=200.0, drop_column_px=300.0,
+                    noise_sigma=2.0)
+    renderer = FrameRenderer(truth, camera, Scene(seam=True, background_texture=4.0, ruler_column_px=20.0),
+                             seed=10, start_s=clip["start_s"])
+    frames, rows = zip(*(renderer.render(k) for k in range(40)))
+    return list(frames), pd.DataFrame(rows)
+
+
+def test_partial_frames_circle_fit_with_known_radius(edge_cut_clip, capsys):
+    """Decision: with the radius known (from clean frames, here given), the centre of a ball cut by the
+    image edge comes from a fixed-radius circle fit to the sub-pixel outline; in flight it is within
+    PARTIAL_RMS_TOLERANCE_PX of the renderer's truth and usable for the trajectory."""
+    frames, truth = edge_cut_clip
+    radius = truth["radius_px"].iloc[0]
+    table = track_frames(frames, truth["time_s"], expected_radius_px=radius)
+    flight = ~truth["in_contact"].to_numpy()
+    assert (table["quality"] == QUALITY_PARTIAL).all()
+    errors = centre_errors(table, truth[["x_px", "y_px"]].to_numpy())
+    report(capsys, f"partial, radius held: centre RMS {rms(errors[flight]):.4f} px, max {errors[flight].max():.4f} px, "
+                   f"median centre se {table['centre_se_px'].median():.4f} px")
+    assert rms(errors[flight]) <= PARTIAL_RMS_TOLERANCE_PX
+    assert np.isfinite(table["centre_se_px"]).all() and np.isfinite(table["fit_rms_px"]).all()
+    assert usable_rows(table, radius)[flight].all()
+    assert not usable_rows(table).any()  # no clean frame and no radius given: none usable
+

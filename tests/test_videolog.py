@@ -1,12 +1,15 @@
 """A synthetic drop-test video through tracking, calibration and the bounce analysis, against its truth."""
 
+import dataclasses
 import json
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from dropfit.analysis import analyse_bounces
-from dropfit.video_synth import make_default_videos
+from dropfit.synth import simulate_drop
+from dropfit.video_synth import default_clips, make_default_videos, render_video
 from dropfit.videolog import trajectory_from_video
 
 E_TOLERANCE = 0.005  # dimensionless, per impact (issue 4)
@@ -47,3 +50,65 @@ def test_default_phone_clip_gives_e_and_rebounds_within_tolerance(tmp_path):
         assert abs(row.h_after_m - true["rebound_height_m"]) < REBOUND_TOLERANCE_M
     # 4.4 ms contacts filmed every 4.2 ms: no contact time may be claimed
     assert not impacts["contact_resolvable"].any()
+
+
+CONTACT_TIME_TOLERANCE_MS = 0.2  # ms (issue 4)
+CONTACT_MODEL_TOLERANCE = 0.10  # relative, k and c (issue 4)
+MAX_STANDARD_ERRORS = 4.0  # a result this many of its reported standard errors off the truth is not honest
+
+
+@pytest.fixture(scope="module", params=[2000.0, 1000.0], ids=["2000fps", "1000fps"])
+def closeup_fit(request, tmp_path_factory):
+    """The default close-up (at 2000 fps, and the same at 1000 fps) through ``dropfit measure``,
+    ``analyse`` and ``fit``; the fit's first impact, the fit result and the generator's truth (first
+    impact's contact time and e, the contact model's k and c)."""
+    from dropfit.cli import main
+
+    clip = default_clips()["contact_2000fps_closeup"]
+    camera = dataclasses.replace(clip["camera"], fps=request.param)
+    truth = simulate_drop(**clip["truth"])
+    out = tmp_path_factory.mktemp("closeup")
+    frames = render_video(truth, camera, clip["scene"], clip["duration_s"], 1, out / "closeup.avi",
+                          start_s=clip["start_s"])
+    video = frames.attrs["video_path"]
+    assert main(["measure", video, "--out", str(out / "t.nc"), "--ball-radius-m", str(truth.radius_m),
+                 "--ball-mass-kg", "0.057", "--ball-type", "tennis"]) == 0
+    assert main(["analyse", str(out / "t.nc"), "--impacts", str(out / "i.csv"), "--flights", str(out / "f.csv"),
+                 "--summary", str(out / "a.json")]) == 0
+    assert main(["fit", "--analysis", str(out / "a.json"), "--impacts", str(out / "i.csv"),
+                 "--out", str(out / "fit.json"), "--ball-type", "tennis"]) == 0
+    impacts = pd.read_csv(out / "i.csv")
+    fit = json.loads((out / "fit.json").read_text(encoding="utf-8"))
+    first = truth.impacts.iloc[0]
+    model = clip["truth"]["contact_model"]
+    true_impact = {"contact_time_s": first["t_liftoff_s"] - first["t_s"], "e": first["e"],
+                   "stiffness_n_m": model.stiffness_n_m, "damping_n_s_m": model.damping_n_s_m}
+    return impacts.iloc[0], fit, true_impact
+
+
+@pytest.mark.slow
+def test_closeup_contact_time_e_k_c_within_tolerance(closeup_fit, capsys):
+    """The close-up (ball in view all along, flattened in contact): scale from the ball's diameter (gravity
+    over 30 ms is too imprecise), floor found in the image, contact from where the flights cross floor + R.
+    Truth: the generator's first impact (contact time, e) and its contact model (k = 30 kN/m, c = 8.2 N·s/m)."""
+    impact, fit, true_impact = closeup_fit
+    model = fit["contact_model"]
+    k, c = model["stiffness_n_m"], model["damping_n_s_m"]
+    with capsys.disabled():
+        print(f"\n[closeup] t_contact {impact['t_contact_ms']:.5f} ± {impact['t_contact_se_ms']:.5f} ms "
+              f"(truth {1e3 * true_impact['contact_time_s']:.5f}); e {impact['e']:.6f} ± {impact['e_se']:.6f} "
+              f"(truth {true_impact['e']:.6f}); k {k['value']:.1f} ± {k['se']:.1f} N/m; "
+              f"c {c['value']:.4f} ± {c['se']:.4f} N·s/m; {fit['calibration']}")
+    assert fit["calibration"] == "scale from the ball's diameter"
+    assert bool(impact["contact_resolvable"])
+    assert abs(impact["t_contact_ms"] - 1e3 * true_impact["contact_time_s"]) <= CONTACT_TIME_TOLERANCE_MS
+    assert abs(impact["e"] - true_impact["e"]) <= E_TOLERANCE
+    assert abs(impact["e"] - true_impact["e"]) <= MAX_STANDARD_ERRORS * impact["e_se"]
+    true_k, true_c = true_impact["stiffness_n_m"], true_impact["damping_n_s_m"]
+    assert k["value"] == pytest.approx(true_k, rel=CONTACT_MODEL_TOLERANCE)
+    assert c["value"] == pytest.approx(true_c, rel=CONTACT_MODEL_TOLERANCE)
+    assert abs(c["value"] - true_c) <= MAX_STANDARD_ERRORS * c["se"]
+    # the floor row's uncertainty (FLOOR_ROW_SE_PX) is in these standard errors
+    assert abs(impact["t_contact_ms"] - 1e3 * true_impact["contact_time_s"]) <= MAX_STANDARD_ERRORS * impact["t_contact_se_ms"]
+    assert abs(k["value"] - true_k) <= MAX_STANDARD_ERRORS * k["se"]
+

@@ -326,7 +326,7 @@ def detect_bounces(t, y, source="trajectory"):
 
 
 def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="auto", contact_height_m=None,
-                    source="trajectory", scale_rel_se=0.0):
+                    source="trajectory", scale_rel_se=0.0, contact_height_se_m=0.0, contact_guard_s=0.0):
     """Segment a drop-test trajectory into flights, fit them and measure every impact.
 
     Parameters
@@ -355,6 +355,13 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
         moves e, √(h_n/h_{n−1}), flight times and their ratios too (a +0.5 % scale moves a tennis
         ball's first e by about −0.005). The heights' share of their standard error is also
         reported (``h_after_scale_se_m``, ``drop_height_scale_se_m``).
+    contact_height_se_m : float
+        Standard error in m of a given ``contact_height_m`` (e.g. of a floor found in a video); it
+        enters the standard errors of the touchdown, lift-off and contact times, speeds and e.
+    contact_guard_s : float
+        Samples closer than this (s) to a fitted touchdown or lift-off are left out of the flights.
+        0 for instantaneous samples; half the frame interval for video frames, which are exposed for
+        up to a frame interval around their time and may show the ball already flattened.
 
     Returns
     -------
@@ -398,7 +405,8 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
 
     with_drag = drag != "off"
     theta0 = np.append(theta_no_drag, 1e-3) if with_drag else theta_no_drag
-    fit = _refine(t, y, bounds, with_drag, g, theta0, contact_height_m, noise)
+    guard_s = float(contact_guard_s)
+    fit = _refine(t, y, bounds, with_drag, g, theta0, contact_height_m, noise, guard_s)
     if fit is None:
         raise InputError(f"{source}: the flights could not be fitted (too few samples between bounces)")
     bic = {with_drag: _bic(fit[1])}
@@ -408,8 +416,8 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
         rival = _fit_flights(t, y, final_bounds, False, g, result.x[:-1])
         bic[False] = _bic(rival[1])
         if bic[False] <= bic[True]:
-            fit = _refine(t, y, final_bounds, False, g, rival[1].x, contact_height_m, noise) or fit
-    return _report(fit, bic, t_all, y_all, noise, g, float(t[release]), source, scale_rel_se)
+            fit = _refine(t, y, final_bounds, False, g, rival[1].x, contact_height_m, noise, guard_s) or fit
+    return _report(fit, bic, t_all, y_all, noise, g, float(t[release]), source, scale_rel_se, contact_height_se_m)
 
 
 #: The flights' own curvature may differ from g by this fraction (drag changes it by a few %).
@@ -527,8 +535,12 @@ def _check_free_fall(t, y, bounds, g, source):
                          f"units of time and height in the column names (or the scale of a px log)")
 
 
-def _refine(t, y, bounds, with_drag, g, theta0, contact_height_m, noise):
-    """Alternate fitting and re-assigning samples by the fitted touchdown and lift-off times."""
+def _refine(t, y, bounds, with_drag, g, theta0, contact_height_m, noise, guard_s):
+    """Alternate fitting and re-assigning samples by the fitted touchdown and lift-off times.
+
+    A flight keeps the samples more than ``guard_s`` (s) after the lift-off before it and before
+    the touchdown after it.
+    """
     fitted = _fit_flights(t, y, bounds, with_drag, g, theta0)
     if fitted is None:
         return None
@@ -538,9 +550,9 @@ def _refine(t, y, bounds, with_drag, g, theta0, contact_height_m, noise):
         _set_weights(quantities, result)
         values = _unpack_quantities(quantities(result.x), quantities.n_impacts)
         y_apex, t_apex, k = model.unpack(result.x)
-        starts = np.concatenate([[t_apex[0] - 1e-9], values["t_liftoff_s"]])
+        starts = np.concatenate([[t_apex[0] - 1e-9], values["t_liftoff_s"] + guard_s])
         last_end = t_apex[-1] + time_from_apex(y_apex[-1] - values["contact_height_m"], k, g)
-        ends = np.append(values["t_touchdown_s"], last_end)
+        ends = np.append(values["t_touchdown_s"] - guard_s, last_end - guard_s)
         new_bounds = list(zip(starts, ends))
         refitted = _fit_flights(t, y, new_bounds, with_drag, g, result.x)
         if refitted is None:
@@ -551,7 +563,7 @@ def _refine(t, y, bounds, with_drag, g, theta0, contact_height_m, noise):
     if misfit is not None and misfit >= 2:
         # an impact too shallow to be detected hides inside this flight: stop the sequence before it
         theta = np.concatenate([result.x[: 2 * misfit], result.x[2 * model.n_flights:]])
-        return _refine(t, y, bounds[:misfit], with_drag, g, theta, contact_height_m, noise)
+        return _refine(t, y, bounds[:misfit], with_drag, g, theta, contact_height_m, noise, guard_s)
     quantities = _ImpactQuantities(model, contact_height_m)
     _set_weights(quantities, result)
     return model, result, counts, quantities, bounds
@@ -598,7 +610,15 @@ def _unpack_quantities(vector, n_impacts):
     return values
 
 
-def _report(fit, bic, t_all, y_all, noise, g, release_time, source, scale_rel_se):
+def _contact_height_derivative(quantities, theta, step_m=1e-6):
+    """Derivative of the impact quantities with respect to a given contact height (central difference)."""
+    height = quantities.given_contact_height
+    upper = _ImpactQuantities(quantities.model, height + step_m)(theta)
+    lower = _ImpactQuantities(quantities.model, height - step_m)(theta)
+    return (upper - lower) / (2 * step_m)
+
+
+def _report(fit, bic, t_all, y_all, noise, g, release_time, source, scale_rel_se, contact_height_se_m):
     model, result, counts, quantities, bounds = fit
     theta = result.x
     cov_theta = _covariance(result)
@@ -608,6 +628,10 @@ def _report(fit, bic, t_all, y_all, noise, g, release_time, source, scale_rel_se
     scale_part = scale_rel_se * np.nan_to_num(_scale_sensitivity(quantities, result)) if scale_rel_se \
         else np.zeros(vector.size)
     cov = jac @ cov_theta @ jac.T + np.outer(scale_part, scale_part)
+    height_derivative = np.zeros(vector.size)
+    if quantities.given_contact_height is not None and contact_height_se_m > 0:
+        height_derivative = _contact_height_derivative(quantities, theta)
+        cov = cov + np.outer(height_derivative, height_derivative) * contact_height_se_m ** 2
     se = np.sqrt(np.clip(np.diag(cov), 0.0, None))
     n = quantities.n_impacts
     values = _unpack_quantities(vector, n)
@@ -645,7 +669,10 @@ def _report(fit, bic, t_all, y_all, noise, g, release_time, source, scale_rel_se
     td = 1 + _IMPACT_COLUMNS.index("t_touchdown_s") * n
     lo = 1 + _IMPACT_COLUMNS.index("t_liftoff_s") * n
     contact_jac = jac[lo: lo + n] - jac[td: td + n]
-    contact_se_ms = 1e3 * np.sqrt(np.clip(np.einsum("ij,jk,ik->i", contact_jac, cov_theta, contact_jac), 0, None))
+    contact_height_slope = height_derivative[lo: lo + n] - height_derivative[td: td + n]
+    contact_variance = (np.einsum("ij,jk,ik->i", contact_jac, cov_theta, contact_jac)
+                        + (contact_height_slope * contact_height_se_m) ** 2)
+    contact_se_ms = 1e3 * np.sqrt(np.clip(contact_variance, 0, None))
     if quantities.given_contact_height is not None and np.any(contact_ms < -3 * contact_se_ms - 1e-6):
         raise InputError(f"{source}: the flights meet above the given contact height (floor + radius): "
                          f"the floor is lower than that; check floor_m and the ball radius")

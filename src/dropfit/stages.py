@@ -82,10 +82,15 @@ def analyse(trajectory_path, impacts_path, flights_path, summary_path, drag="aut
     # with the floor and the radius known, the ball touches down where its centre is one radius up
     contact_height = attrs["floor_m"] + attrs["ball_radius_m"] if "floor_m" in attrs and "ball_radius_m" in attrs \
         else None
-    result = analyse_bounces(trajectory["time"].values, trajectory["y"].values, gravity_m_s2=gravity_m_s2,
+    # a video frame is exposed for up to one frame interval around its time: keep the flights half an
+    # interval clear of the contacts, where a frame may show the ball flattened
+    time = trajectory["time"].values
+    guard = 0.5 * float(np.median(np.diff(time))) if "video" in attrs else 0.0
+    result = analyse_bounces(time, trajectory["y"].values, gravity_m_s2=gravity_m_s2,
                              drag=drag, contact_height_m=contact_height,
                              source=attrs.get("source", str(trajectory_path)),
-                             scale_rel_se=float(attrs.get("scale_rel_se", 0.0)))
+                             scale_rel_se=float(attrs.get("scale_rel_se", 0.0)),
+                             contact_height_se_m=float(attrs.get("floor_se_m", 0.0)), contact_guard_s=guard)
     summary = dict(result.summary)
     summary["e_covariance"] = result.e_covariance.tolist()
     summary["trajectory_attrs"] = {key: _plain(value) for key, value in trajectory.attrs.items()}

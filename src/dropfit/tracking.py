@@ -25,13 +25,19 @@ Quality flags, one per frame (column ``quality``):
 ``ok``
     A lone, complete ball: centre and radius are measured as above.
 ``partial``
-    The ball touches the image border: the centre and radius come from a circle fit to the
-    visible outline, which is less accurate.
+    The ball is cut by the image border: the centre comes from a geometric circle fit to the
+    sub-pixel points of the visible outline that are not on the image border (where the coverage
+    crosses one half along rays from a first centre guess), outliers trimmed. The radius is held
+    at the radius of the clean frames when there are any (a short arc fixes the centre far better
+    when it need not fix the radius too), else fitted. Column ``centre_se_px`` gives the fit's
+    standard error of the centre; ``fit_rms_px`` the RMS distance of the outline points from the
+    circle.
 ``occluded``
     The ball's blob is merged with another object (a hand holding it, or the ball's own shadow)
     or is much smaller than expected (something in front of it). The centre and radius come from
     a robust circle fit to the part of the outline that lies on a circle; treat them as
     approximate. A hand holding the ball before release gives ``occluded`` frames.
+    ``centre_se_px`` and ``fit_rms_px`` are those of the circle fit.
 ``lost``
     No ball was found (it left the image, or it is hidden): ``x_px``, ``y_px`` and ``radius_px``
     are NaN.
@@ -40,7 +46,17 @@ Quality flags, one per frame (column ``quality``):
     a recorder repeats frames to fill a nominal rate: its time stamp does not belong to its
     content, so it is dropped from the trajectory (NaN position).
 
-Only ``ok`` rows are meant for fitting trajectories.
+``ok`` rows are meant for fitting trajectories, and so are ``partial`` rows whose ``centre_se_px``
+and ``fit_rms_px`` are small (:func:`usable_rows`). ``centre_se_px`` and ``fit_rms_px`` are NaN for
+``ok`` rows, whose coverage-weighted centroid is not a fit.
+
+Ball in the background. A ball that is in view for the whole clip and moves less than a few
+diameters (a close-up of a contact) covers some pixels in more than half of the background
+samples, so their median is the ball, not the scene. The tracker then runs twice: the balls
+found in the background samples by the first pass are cut out of them (discs of
+``BALL_MASK_RADII`` tracked radii plus ``BALL_MASK_MARGIN_PX``), the median of what is left is
+the background of the next pass (:func:`background_without_ball`), until the sampled balls
+settle (a first pass misled by the ball in the background can misplace some of them).
 
 Hands. A hand holding the ball is a foreground blob merged with the ball. The ball is the largest
 inscribed circle of the merged blob (this assumes the hand, as seen by the camera, is narrower
@@ -50,10 +66,12 @@ it fills less than ``MIN_ELLIPSE_FILL`` of that ellipse, or its area exceeds
 ``ATTACHED_AREA_FRACTION`` times the expected ball area. Once the ball is released, the hand is a
 separate blob, and its pixels are excluded from the ball's measurement.
 
-Limitations: the camera must not move; the ball, and the hand, must not stay at one place for
-more than about half the clip (else they become part of the median background: trim such clips);
-the ball must differ in grey level from the background (a red ball on a green wall of the same
-luminance is invisible); shading on the ball biases the edge coverage slightly.
+Limitations: the camera must not move; the hand must not stay at one place for more than about
+half the clip (else it becomes part of the median background: trim such clips; the ball is cut
+out, see above); the ball must differ in grey level from the background (a red ball on a green
+wall of the same luminance is invisible); shading on the ball biases the edge coverage slightly;
+a ball that is cut by the image edge in every frame has no clean radius to hold, and a circle
+fit with a free radius to a short arc is unreliable, so its frames are not usable.
 """
 
 from __future__ import annotations
@@ -77,7 +95,7 @@ QUALITY_OCCLUDED = "occluded"
 QUALITY_LOST = "lost"
 QUALITY_DUPLICATE = "duplicate"
 QUALITIES = (QUALITY_OK, QUALITY_PARTIAL, QUALITY_OCCLUDED, QUALITY_LOST, QUALITY_DUPLICATE)
-COLUMNS = ["frame", "time_s", "x_px", "y_px", "radius_px", "quality"]
+COLUMNS = ["frame", "time_s", "x_px", "y_px", "radius_px", "quality", "centre_se_px", "fit_rms_px"]
 
 #: Foreground threshold, in robust noise standard deviations of (frame - background).
 NOISE_THRESHOLD_SIGMAS = 5.0
@@ -108,6 +126,28 @@ BACKGROUND_SAMPLES = 11
 DUPLICATE_STRIDE_PX = 16
 #: Extra margin of the search window, px.
 WINDOW_MARGIN_PX = 6
+#: Radius of the disc cut out of a background sample around a tracked ball, in tracked radii (a
+#: ball flattened in contact is up to ~10 % wider), plus BALL_MASK_MARGIN_PX (motion blur, edge).
+BALL_MASK_RADII = 1.2
+BALL_MASK_MARGIN_PX = 3.0
+#: At most this many further tracking passes, each with the ball cut out of the background samples
+#: where the previous pass found it; they stop once the sampled balls move less than
+#: BACKGROUND_SETTLED_PX between passes.
+MAX_BACKGROUND_REFINEMENTS = 3
+BACKGROUND_SETTLED_PX = 0.5
+#: Half-length of the rays along which an outline point is placed where the coverage crosses ½, px.
+EDGE_RAY_HALF_LENGTH_PX = 3.0
+#: Outline points farther from the fitted circle than this many robust residual standard
+#: deviations (and than EDGE_OUTLIER_MIN_PX) are dropped before the final fit.
+EDGE_OUTLIER_SIGMAS = 3.0
+EDGE_OUTLIER_MIN_PX = 0.5
+#: A partial frame enters the trajectory when its circle fit's centre standard error and its RMS
+#: residual are at most these, px.
+MAX_PARTIAL_CENTRE_SE_PX = 0.1
+MAX_PARTIAL_FIT_RMS_PX = 0.5
+#: ... and when its radius is within this of the clean frames' (a free-radius fit to a short arc can
+#: settle on a wrong circle with small residuals), px.
+MAX_PARTIAL_RADIUS_MISMATCH_PX = 0.5
 
 _ELLIPSE_3 = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (3, 3))
 _ELLIPSE_5 = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (5, 5))
@@ -150,6 +190,10 @@ class BallMeasurement:
     truncated : bool
         The blob reaches an edge of the measured window that is not an image edge: the window was
         too small, measure again in a larger one.
+    centre_se_px : float
+        Standard error of the centre of a circle fit (partial and occluded balls), px; NaN for ``ok``.
+    fit_rms_px : float
+        RMS distance of the outline points from the fitted circle, px; NaN for ``ok``.
     """
 
     x_px: float
@@ -158,6 +202,8 @@ class BallMeasurement:
     quality: str
     area_px2: float
     truncated: bool = False
+    centre_se_px: float = math.nan
+    fit_rms_px: float = math.nan
 
 
 def to_grey(image):
@@ -285,6 +331,98 @@ def _robust_circle(points, centre, radius, keep_mask):
     return cx, cy, r
 
 
+def fit_circle_geometric(x, y, centre, radius, fixed_radius=False, iterations=8):
+    """Geometric least-squares circle (distances to the circle) by Gauss–Newton, with its errors.
+
+    Parameters
+    ----------
+    x, y : numpy.ndarray
+        Point coordinates, px.
+    centre : (float, float)
+        Starting centre (x, y), px.
+    radius : float
+        Starting radius, px; kept when ``fixed_radius``.
+    fixed_radius : bool
+        Fit the centre only.
+    iterations : int
+        Gauss–Newton steps (it converges in a few from a guess within a pixel or so).
+
+    Returns
+    -------
+    (float, float, float, float, float)
+        Centre x, y and radius, px, the standard error of the centre (root of the mean of the
+        variances of x and y, from the residual scatter), px, and the RMS residual, px.
+    """
+    x = np.asarray(x, float)
+    y = np.asarray(y, float)
+    cx, cy, r = float(centre[0]), float(centre[1]), float(radius)
+    n_params = 2 if fixed_radius else 3
+    for _ in range(iterations):
+        dx, dy = x - cx, y - cy
+        distance = np.maximum(np.hypot(dx, dy), 1e-9)
+        residual = distance - r
+        jacobian = np.column_stack([-dx / distance, -dy / distance, -np.ones_like(dx)])[:, :n_params]
+        step = np.linalg.lstsq(jacobian, -residual, rcond=None)[0]
+        cx, cy = cx + step[0], cy + step[1]
+        if not fixed_radius:
+            r += step[2]
+        if np.max(np.abs(step)) < 1e-6:
+            break
+    dx, dy = x - cx, y - cy
+    distance = np.maximum(np.hypot(dx, dy), 1e-9)
+    residual = distance - r
+    jacobian = np.column_stack([-dx / distance, -dy / distance, -np.ones_like(dx)])[:, :n_params]
+    dof = max(x.size - n_params, 1)
+    variance = float(residual @ residual) / dof
+    covariance = variance * np.linalg.pinv(jacobian.T @ jacobian)
+    centre_se = math.sqrt(max((covariance[0, 0] + covariance[1, 1]) / 2, 0.0))
+    return cx, cy, r, centre_se, math.sqrt(float(np.mean(residual ** 2)))
+
+
+def _edge_points(coverage, points, centre):
+    """Sub-pixel outline: where the coverage crosses ½ along the ray from ``centre`` through each point.
+
+    Returns the points (n, 2) that have a crossing within EDGE_RAY_HALF_LENGTH_PX (the one nearest
+    the starting point), in px.
+    """
+    direction = points - np.asarray(centre, float)
+    direction /= np.maximum(np.hypot(direction[:, 0], direction[:, 1]), 1e-9)[:, None]
+    offsets = np.arange(-EDGE_RAY_HALF_LENGTH_PX, EDGE_RAY_HALF_LENGTH_PX + 1e-9, 0.25)
+    sample_x = (points[:, 0, None] + offsets * direction[:, 0, None]).astype(np.float32)
+    sample_y = (points[:, 1, None] + offsets * direction[:, 1, None]).astype(np.float32)
+    values = cv2.remap(coverage.astype(np.float32), sample_x, sample_y, cv2.INTER_LINEAR,
+                       borderMode=cv2.BORDER_REPLICATE) - 0.5
+    crossing = (values[:, :-1] >= 0) & (values[:, 1:] < 0)  # inside to outside, going out
+    has = crossing.any(axis=1)
+    nearest = np.argmin(np.where(crossing, np.abs(offsets[:-1]), np.inf), axis=1)[has]
+    rows = np.flatnonzero(has)
+    a, b = values[rows, nearest], values[rows, nearest + 1]
+    offset = offsets[nearest] + (offsets[1] - offsets[0]) * a / (a - b)
+    return points[rows] + offset[:, None] * direction[rows]
+
+
+def _fit_outline(coverage, points, centre, radius, radius_ref_px):
+    """Centre, radius, centre standard error and RMS residual (px) of the ball's sub-pixel outline.
+
+    The radius is held at ``radius_ref_px`` when given; points off the circle (a seam at the edge,
+    a hand) are trimmed once. None when too few points remain.
+    """
+    if len(points) < 8:
+        return None
+    edge = _edge_points(coverage, points, centre)
+    if len(edge) < 8:
+        return None
+    fixed = radius_ref_px is not None
+    start_r = radius_ref_px if fixed else radius
+    fit = fit_circle_geometric(edge[:, 0], edge[:, 1], centre, start_r, fixed)
+    residual = np.hypot(edge[:, 0] - fit[0], edge[:, 1] - fit[1]) - fit[2]
+    spread = 1.4826 * float(np.median(np.abs(residual - np.median(residual))))
+    inlier = np.abs(residual) <= max(EDGE_OUTLIER_SIGMAS * spread, EDGE_OUTLIER_MIN_PX)
+    if inlier.sum() < 8:
+        return None
+    return fit_circle_geometric(edge[inlier, 0], edge[inlier, 1], fit[:2], fit[2], fixed)
+
+
 def measure_ball(grey, background, threshold_grey, centre_guess, radius_ref_px=None,
                  image_edges=(True, True, True, True)):
     """Sub-pixel centre and radius of the ball in one (window of a) frame.
@@ -398,11 +536,18 @@ def measure_ball(grey, background, threshold_grey, centre_guess, radius_ref_px=N
         guess_r = radius_ref_px or r_in
         circle = _robust_circle(points, (float(ix_in), float(iy_in)), guess_r, keep)
         cx, cy, r = circle if circle is not None else (float(ix_in), float(iy_in), float(guess_r))
+        centre_se = fit_rms = math.nan
+        outline = points[keep]
+        near = np.abs(np.hypot(outline[:, 0] - cx, outline[:, 1] - cy) - r) <= max(1.5, 0.08 * r)
+        refined = _fit_outline(np.clip(coverage, -1.0, 2.0), outline[near], (cx, cy), r, radius_ref_px)
+        if refined is not None:
+            cx, cy, r, centre_se, fit_rms = refined
         # partial: the ball itself (not a hand reaching in from the border) crosses an image edge
         crosses = (left and cx - r < -0.5, top and cy - r < -0.5,
                    right and cx + r > width - 0.5, bottom and cy + r > height - 0.5)
         quality = QUALITY_PARTIAL if (any(crosses) or not attached) else QUALITY_OCCLUDED
-        return BallMeasurement(float(cx), float(cy), float(r), quality, math.pi * r * r, truncated and not attached)
+        return BallMeasurement(float(cx), float(cy), float(r), quality, math.pi * r * r, truncated and not attached,
+                               centre_se, fit_rms)
 
     in_region = region.astype(bool)
     deep_filled, _ = _fill_largest(((coverage > DEEP_COVERAGE) & in_region).astype(np.uint8))
@@ -546,7 +691,7 @@ class BallTracker:
         if result is None:
             return None
         return BallMeasurement(result.x_px + x0, result.y_px + y0, result.radius_px, result.quality,
-                               result.area_px2, result.truncated)
+                               result.area_px2, result.truncated, result.centre_se_px, result.fit_rms_px)
 
     def _is_duplicate(self, frame, centre, half_size):
         previous = self._previous
@@ -577,8 +722,9 @@ class BallTracker:
 
         Returns
         -------
-        (float, float, float, str)
-            Centre x, y and radius, px (NaN when lost or duplicate), and the quality flag.
+        (float, float, float, str, float, float)
+            Centre x, y and radius, px (NaN when lost or duplicate), the quality flag, and the
+            circle fit's centre standard error and RMS residual, px (NaN unless a fit was used).
         """
         frame = np.asarray(frame)
         if frame.shape[:2] != (self.height, self.width):
@@ -590,7 +736,7 @@ class BallTracker:
         duplicate = self._is_duplicate(frame, predicted, half_size)
         self._previous = frame
         if duplicate:
-            return math.nan, math.nan, math.nan, QUALITY_DUPLICATE
+            return math.nan, math.nan, math.nan, QUALITY_DUPLICATE, math.nan, math.nan
 
         result = None
         if predicted is not None:
@@ -606,12 +752,12 @@ class BallTracker:
                 if result is not None and result.truncated:
                     result = self._measure_around(frame, (result.x_px, result.y_px), 4.0 * r + 2 * WINDOW_MARGIN_PX)
         if result is None:
-            return math.nan, math.nan, math.nan, QUALITY_LOST
+            return math.nan, math.nan, math.nan, QUALITY_LOST, math.nan, math.nan
         self._history = (self._history + [(self._index, result.x_px, result.y_px)])[-3:]
         if result.quality == QUALITY_OK:
             self._radii = (self._radii + [result.radius_px])[-15:]
             self._radius_ref = float(np.median(self._radii))
-        return result.x_px, result.y_px, result.radius_px, result.quality
+        return result.x_px, result.y_px, result.radius_px, result.quality, result.centre_se_px, result.fit_rms_px
 
 
 def _found_or_raise(table, source):
@@ -626,11 +772,111 @@ def _run(frames, background, expected_radius_px):
     return rows
 
 
+def background_without_ball(samples, balls, background):
+    """The background again with the ball cut out of its samples, when the ball is in it; else None.
+
+    Parameters
+    ----------
+    samples : sequence of numpy.ndarray
+        The frames whose per-pixel median is ``background`` (grey or BGR).
+    balls : sequence of (float, float, float)
+        The ball's centre x, y and radius tracked in each sample with ``background``, px (NaN when
+        not found).
+    background : Background
+        The first background.
+
+    Returns
+    -------
+    Background or None
+        None when no pixel is covered by the ball (a disc of ``BALL_MASK_RADII`` radii plus
+        ``BALL_MASK_MARGIN_PX``) in more than half of the samples: the median is then the scene.
+        Else the per-pixel median of the uncovered samples (the first background where every
+        sample is covered), with the first background's noise and threshold.
+    """
+    balls = np.asarray(balls, float).reshape(-1, 3)
+    found = np.isfinite(balls).all(axis=1)
+    if not found.any():
+        return None
+    typical_radius = float(np.median(balls[found, 2]))
+    height, width = background.grey.shape
+    stack = np.stack([to_grey(sample) for sample in samples])
+    rows, columns = np.ogrid[:height, :width]
+    covered = np.zeros((height, width), np.int32)
+    for grey, (x, y, radius), is_found in zip(stack, balls, found):
+        if is_found:
+            reach = BALL_MASK_RADII * max(radius, typical_radius) + BALL_MASK_MARGIN_PX
+            disc = (columns - x) ** 2 + (rows - y) ** 2 <= reach * reach
+            grey[disc] = np.nan
+            covered += disc
+    if covered.max() <= len(stack) // 2:
+        return None
+    everywhere = covered == len(stack)
+    stack[0][everywhere] = background.grey[everywhere]
+    grey = np.nanmedian(stack, axis=0).astype(np.float32)
+    return Background(grey, background.noise_grey, background.threshold_grey)
+
+
+def _sample_balls(rows, indices):
+    """(x, y, radius) of the rows at ``indices``, px, shape (n, 3)."""
+    return np.array([rows[i][:3] for i in indices], float)
+
+
+def _track_without_ball_in_background(track, samples, indices, background, rows):
+    """Rows of further passes of ``track(background)`` with the ball cut out of the background.
+
+    Stops when the ball is not in the background, when the balls in the samples moved less than
+    ``BACKGROUND_SETTLED_PX``, or after ``MAX_BACKGROUND_REFINEMENTS`` passes.
+    """
+    balls = _sample_balls(rows, indices)
+    for _ in range(MAX_BACKGROUND_REFINEMENTS):
+        cleaner = background_without_ball(samples, balls, background)
+        if cleaner is None:
+            break
+        rows = track(cleaner)
+        moved_balls = _sample_balls(rows, indices)
+        change = np.abs(moved_balls - balls)
+        change[np.isnan(moved_balls) & np.isnan(balls)] = 0.0
+        balls = moved_balls
+        if np.nan_to_num(change, nan=np.inf).max() < BACKGROUND_SETTLED_PX:
+            break
+    return rows
+
+
 def _table(rows, times_s):
-    x, y, r, quality = zip(*rows) if rows else ((), (), (), ())
+    x, y, r, quality, centre_se, fit_rms = zip(*rows) if rows else ((),) * 6
     return pd.DataFrame({"frame": np.arange(len(rows)), "time_s": np.asarray(times_s, float),
                          "x_px": np.asarray(x, float), "y_px": np.asarray(y, float),
-                         "radius_px": np.asarray(r, float), "quality": list(quality)}, columns=COLUMNS)
+                         "radius_px": np.asarray(r, float), "quality": list(quality),
+                         "centre_se_px": np.asarray(centre_se, float), "fit_rms_px": np.asarray(fit_rms, float)},
+                        columns=COLUMNS)
+
+
+def usable_rows(table, radius_px=None):
+    """Rows whose centre is good for a trajectory: ``ok``, and ``partial`` with a good circle fit.
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        As returned by :func:`track_frames` or :func:`track_video`.
+    radius_px : float, optional
+        The ball's radius, px, when known; by default the median radius of the ``ok`` rows.
+
+    Returns
+    -------
+    numpy.ndarray
+        Boolean mask, one per row: ``ok``, or ``partial`` with ``centre_se_px`` ≤
+        ``MAX_PARTIAL_CENTRE_SE_PX``, ``fit_rms_px`` ≤ ``MAX_PARTIAL_FIT_RMS_PX`` and a radius
+        within ``MAX_PARTIAL_RADIUS_MISMATCH_PX`` of ``radius_px``. Without a radius (no ``ok``
+        row and none given) no ``partial`` row is usable.
+    """
+    quality = table["quality"].to_numpy()
+    ok = quality == QUALITY_OK
+    if radius_px is None:
+        radius_px = float(np.median(table["radius_px"].to_numpy()[ok])) if ok.any() else math.nan
+    good_fit = ((table["centre_se_px"].to_numpy() <= MAX_PARTIAL_CENTRE_SE_PX)
+                & (table["fit_rms_px"].to_numpy() <= MAX_PARTIAL_FIT_RMS_PX)
+                & (np.abs(table["radius_px"].to_numpy() - radius_px) <= MAX_PARTIAL_RADIUS_MISMATCH_PX))
+    return ok | ((quality == QUALITY_PARTIAL) & good_fit)
 
 
 def _spread(count, samples):
@@ -651,15 +897,15 @@ def track_frames(frames, times_s, expected_radius_px=None, *, background=None, s
         Expected ball radius, px.
     background : Background, optional
         The static scene; by default the median of ``BACKGROUND_SAMPLES`` frames spread over the
-        clip.
+        clip, with the ball cut out when it is in it (see the module documentation).
     source : str
         Name of the recording in error messages.
 
     Returns
     -------
     pandas.DataFrame
-        One row per frame: ``frame``, ``time_s`` (s), ``x_px``, ``y_px``, ``radius_px`` (px) and
-        ``quality`` (see the module documentation).
+        One row per frame: ``frame``, ``time_s`` (s), ``x_px``, ``y_px``, ``radius_px`` (px),
+        ``quality``, ``centre_se_px`` and ``fit_rms_px`` (px; see the module documentation).
 
     Raises
     ------
@@ -674,8 +920,15 @@ def track_frames(frames, times_s, expected_radius_px=None, *, background=None, s
     if times_s.shape != (len(frames),):
         raise ValueError(f"{len(frames)} frames but {times_s.size} times")
     if background is None:
-        background = estimate_background([frames[i] for i in _spread(len(frames), BACKGROUND_SAMPLES)])
-    table = _table(_run(frames, background, expected_radius_px), times_s)
+        indices = _spread(len(frames), BACKGROUND_SAMPLES)
+        samples = [frames[i] for i in indices]
+        first = estimate_background(samples)
+        rows = _track_without_ball_in_background(lambda clean: _run(frames, clean, expected_radius_px), samples,
+                                                 indices, first, _run(frames, first, expected_radius_px))
+        background = first
+    else:
+        rows = _run(frames, background, expected_radius_px)
+    table = _table(rows, times_s)
     table.attrs.update(source=str(source), noise_grey=background.noise_grey)
     return _found_or_raise(table, source)
 
@@ -692,8 +945,8 @@ def _read_samples(capture, indices):
     return samples
 
 
-def _video_background(path, frame_count, samples):
-    """Background of a video file: seek to frames spread over it (cheap for MJPG AVI)."""
+def _video_samples(path, frame_count, samples):
+    """Grey frames spread over a video file and their indices: by seeking (cheap for MJPG AVI)."""
     if frame_count >= 1:
         indices = _spread(int(frame_count), samples)
         for backend in (cv2.CAP_OPENCV_MJPEG, cv2.CAP_ANY):
@@ -702,7 +955,7 @@ def _video_background(path, frame_count, samples):
                 if capture.isOpened():
                     frames = _read_samples(capture, indices)
                     if len(frames) == len(indices):
-                        return estimate_background(frames)
+                        return list(indices), frames
             finally:
                 capture.release()
     # unknown length or no seeking: decode everything, keeping frames at a doubling stride
@@ -721,9 +974,20 @@ def _video_background(path, frame_count, samples):
             index += 1
     finally:
         capture.release()
-    if not kept:
-        return None
-    return estimate_background([f for _, f in kept])
+    return [i for i, _ in kept], [f for _, f in kept]
+
+
+def _track_decoded(path, background, expected_radius_px):
+    """Decode a video file again and track the ball with a given background; the tracker's rows."""
+    capture = cv2.VideoCapture(str(path))
+    reader = _FrameReader(capture)
+    reader.start()
+    try:
+        tracker = BallTracker(background, expected_radius_px)
+        return [tracker.update(frame) for frame, _ in reader]
+    finally:
+        reader.close()
+        capture.release()
 
 
 def _frame_times(stamps_ms, container_fps, capture_fps, path):
@@ -804,9 +1068,10 @@ def track_video(path, capture_fps=None, expected_radius_px=None, *, background_s
     reader = _FrameReader(capture)
     reader.start()
     try:
-        background = _video_background(path, frame_count, background_samples)
-        if background is None or background.grey.shape != first.shape[:2]:
+        indices, samples = _video_samples(path, frame_count, background_samples)
+        if not samples or samples[0].shape[:2] != first.shape[:2]:
             raise InputError(f"{path}: the frames could not be decoded consistently (corrupt video)")
+        background = estimate_background(samples)
         tracker = BallTracker(background, expected_radius_px)
         rows = [tracker.update(first)]
         for frame, stamp in reader:
@@ -815,6 +1080,16 @@ def track_video(path, capture_fps=None, expected_radius_px=None, *, background_s
     finally:
         reader.close()
         capture.release()
+    if indices[-1] < len(rows):
+        frame_count_decoded = len(rows)
+
+        def track_again(clean):
+            rows_again = _track_decoded(path, clean, expected_radius_px)
+            if len(rows_again) != frame_count_decoded:
+                raise InputError(f"{path}: the frames could not be decoded consistently (corrupt video)")
+            return rows_again
+
+        rows = _track_without_ball_in_background(track_again, samples, indices, background, rows)
     times, how = _frame_times(stamps, container_fps, capture_fps, path)
     table = _table(rows, times)
     table.attrs.update(source=str(path), container_fps=container_fps, capture_fps=capture_fps,

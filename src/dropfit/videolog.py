@@ -24,8 +24,10 @@ from .heightlog import flight_acceleration, make_trajectory, scale_from_gravity
 from .physics import STANDARD_GRAVITY_M_S2
 
 VIDEO_SUFFIXES = (".avi", ".mp4", ".mov", ".mkv", ".m4v")
-#: Frames the tracker measured cleanly enough to enter the trajectory.
-_USABLE = ("ok",)
+#: Standard error of the floor row found in the image relative to the tracked ball centres, px: the
+#: sub-pixel edge and centroid biases on the rendered 2000 fps close-up are up to 0.03 px. A real
+#: floor seen in perspective can be off by more: give floor_m when it matters.
+FLOOR_ROW_SE_PX = 0.05
 
 
 def is_video(path):
@@ -141,11 +143,11 @@ def trajectory_from_video(path, ball_radius_m=None, scale_m_per_px=None, capture
         others' ``scale_disagreement_<source>`` (s / s_chosen − 1), and the time base
         (``capture_fps``, ``capture_fps_source``, ``capture_rate_note``).
     """
-    from .tracking import track_video
+    from .tracking import track_video, usable_rows
 
     table = track_video(path, capture_fps=capture_fps)
     table = table[table["quality"] != "duplicate"]  # a repeated frame carries no new instant
-    usable = table["quality"].isin(_USABLE).to_numpy()
+    usable = usable_rows(table)
     if np.count_nonzero(usable) < 10:
         raise InputError(f"{path}: the ball is measured cleanly in only {np.count_nonzero(usable)} frames")
     rows = np.where(usable, table["y_px"].to_numpy(), np.nan)
@@ -169,6 +171,7 @@ def trajectory_from_video(path, ball_radius_m=None, scale_m_per_px=None, capture
         if floor_row is not None:
             extra["floor_row_px"] = floor_row
             extra["floor_m"] = -floor_row * scale  # heights are −row × scale
+            extra["floor_se_m"] = FLOOR_ROW_SE_PX * scale
     trajectory = make_trajectory(time, -rows * scale, path, _CALIBRATION_TEXT[chosen], extra)
     trajectory["x"] = ("time", np.where(usable, table["x_px"].to_numpy(), np.nan) * scale, {"units": "m"})
     trajectory["radius"] = ("time", np.where(usable, table["radius_px"].to_numpy(), np.nan) * scale, {"units": "m"})
