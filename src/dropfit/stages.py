@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from . import __version__
+from . import __version__, video_limits
 from .analysis import analyse_bounces
 from .contact import fit_linear_contact
 from .errors import InputError
@@ -83,6 +83,8 @@ def analyse(trajectory_path, impacts_path, flights_path, summary_path, drag="aut
     result = analyse_bounces(trajectory["time"].values, trajectory["y"].values, gravity_m_s2=gravity_m_s2,
                              drag=drag, contact_height_m=contact_height,
                              source=attrs.get("source", str(trajectory_path)))
+    if "video" in attrs:  # a video's later bounces may be too briefly filmed to resolve
+        result = video_limits.select_resolved_impacts(result, attrs["video"])
     summary = dict(result.summary)
     summary["e_covariance"] = result.e_covariance.tolist()
     summary["trajectory_attrs"] = {key: _plain(value) for key, value in trajectory.attrs.items()}

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import video_limits
 from .errors import InputError
 from .heightlog import make_trajectory, scale_from_gravity
 from .physics import STANDARD_GRAVITY_M_S2
@@ -122,6 +123,7 @@ def trajectory_from_video(path, ball_radius_m=None, scale_m_per_px=None, capture
     table = track_video(path, capture_fps=capture_fps)
     table = table[table["quality"] != "duplicate"]  # a repeated frame carries no new instant
     usable = table["quality"].isin(_USABLE).to_numpy()
+    video_limits.check_recording(table, path)  # refuse below the limits of benchmarks/video_failure_sweep.py
     if np.count_nonzero(usable) < 10:
         raise InputError(f"{path}: the ball is measured cleanly in only {np.count_nonzero(usable)} frames")
     time = table["time_s"].to_numpy()
