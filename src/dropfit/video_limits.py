@@ -36,10 +36,10 @@ MIN_BALL_RADIUS_PX = 2.0
 #: Smallest fraction of the (non-duplicate) frames measured cleanly. Sweep: e right with 32 % clean
 #: (ball radius 1.5 px) and 45 % (noise σ = 25 grey levels); σ = 30 leaves no clean frame at all.
 MIN_CLEAN_FRACTION = 0.30
-#: Fewest clean frames in each of the two flights around an impact. Sweep: with 5–16 clean frames
-#: before impact 1 (15–50 frames/s) e was off by 3–8 × 10⁻³ (3–3.5 standard errors) in 5 of 16
-#: clips, the information criterion taking a spurious drag term; with ≥ 21 (≥ 60 frames/s) every
-#: clip's e was within 3 × 10⁻⁴.
+#: Fewest clean frames in each of the two flights around an impact. Sweep: with 6–16 clean frames
+#: before impact 1 (30–50 frames/s, or 60 with long exposures) e₁ was off by 5–8 × 10⁻³ (2–4
+#: standard errors) in 3 of 15 clips (in the one examined, the information criterion had taken a
+#: drag term that is not there); with ≥ 20 every clip's e₁ was within 3 × 10⁻⁴.
 MIN_CLEAN_FRAMES_PER_FLIGHT = 20
 
 
