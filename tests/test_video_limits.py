@@ -127,7 +127,7 @@ def measure_and_analyse(tmp_path, video):
 
 
 def test_a_30_fps_clip_is_refused_for_its_short_first_flight(tmp_path, drop):
-    """30 frames/s with half-frame exposure: the tracker rejects the streaked frames near the floor."""
+    """30 frames/s: the 0.4 s fall has at most 12 frames (fewer: the tracker rejects the streaked ones)."""
     with pytest.raises(InputError) as caught:
         measure_and_analyse(tmp_path, render(tmp_path, drop, fps=30.0))
     message = str(caught.value)

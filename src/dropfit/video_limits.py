@@ -15,6 +15,10 @@ analysis measure, never the ground truth:
   recording is refused only when its first impact is among them (later bounces are shorter, so
   dropping them first loses the least).
 
+The centre noise relative to the travel (also measured, for the sweep's table) sets no limit: it
+stayed under 5 × 10⁻³ wherever the tracker found the ball, was 1 × 10⁻⁴ in the clips whose e was
+wrong, and e's standard error already carries it.
+
 A refusal is an :class:`dropfit.errors.InputError` with one line,
 ``<file>: not analysable: <limit>: <measured value> < <limit value>``.
 """
@@ -29,12 +33,12 @@ from .analysis import estimate_noise
 from .errors import InputError
 from .tracking import QUALITY_DUPLICATE, QUALITY_OK
 
-#: Smallest tracked ball radius, px. Sweep: a ball drawn with radius 1 px is never found; drawn with
-#: 1.5–2 px it is tracked as 2.2–2.3 px (the edge threshold widens it) and e is still right; so a
-#: tracked radius under 2 px is not the ball.
+#: Smallest tracked ball radius, px. Sweep: a ball drawn with radius 1 px is never found and one of
+#: 1.25 px in no clean frame; drawn with 1.5–2 px it is tracked as 2.2–2.3 px (the edge threshold
+#: widens it) and e is still right. No ball was tracked smaller, so a smaller blob is not a ball.
 MIN_BALL_RADIUS_PX = 2.0
 #: Smallest fraction of the (non-duplicate) frames measured cleanly. Sweep: e right with 32 % clean
-#: (ball radius 1.5 px) and 45 % (noise σ = 25 grey levels); σ = 30 leaves no clean frame at all.
+#: (ball radius 1.5 px) and 45 % (noise σ = 25 grey levels); σ ≥ 27.5 leaves at most 1 %.
 MIN_CLEAN_FRACTION = 0.30
 #: Fewest clean frames in each of the two flights around an impact. Sweep: with 6–16 clean frames
 #: before impact 1 (30–50 frames/s, or 60 with long exposures) e₁ was off by 5–8 × 10⁻³ (2–4
