@@ -40,14 +40,14 @@ Output: ``benchmarks/video_failure_sweep.csv`` (one row per clip) and
 95 % half-width, centre RMS error, frames lost; refused clips drawn red; the range where dropfit
 refuses shaded).
 
-Run (114 clips; about 4 minutes of CPU on one core, 705 s wall on the shared 2-core machine where
-the committed CSV and chart were made; ``--chart-only`` redraws the chart from the CSV):
+Run (114 clips; 236 s of CPU, 420 s wall on the shared 2-core machine where the committed CSV and
+chart were made; ``--chart-only`` redraws the chart from the CSV):
 
     PYTHONPATH=src python benchmarks/video_failure_sweep.py [--seeds 3] [--chart-only]
 
 Result of that run: the 75 clips dropfit accepted have |error of e₁| ≤ 2.7 × 10⁻⁴ (median 0.9 × 10⁻⁴);
-of the 25 refused by the limits and analysed without them, 3 had e₁ off by 5–8 × 10⁻³ (15–50
-frames/s). The accepted clips' errors nevertheless fall outside the reported 95 % interval (a
+of the 20 refused by the limits, 15 could be analysed without them and 3 of those had e₁ off by
+5–8 × 10⁻³ (30–50 frames/s). The accepted clips' errors nevertheless fall outside the reported 95 % interval (a
 +1 × 10⁻⁴ bias that the interval does not include; it is what a floor edge found 0.03–0.08 px below
 the drawn floor line, as in the clips checked, gives through the contact height).
 """

@@ -60,10 +60,16 @@ def test_recording_measures_match_the_table_they_were_made_from(drop):
     assert measures["travel_px"] == pytest.approx(0.8 * PX_PER_M, abs=1.0)  # from release to the floor
 
 
-def test_duplicates_do_not_count_as_lost_frames(drop):
+def test_duplicates_and_frames_before_or_after_the_ball_was_seen_do_not_count_as_lost(drop):
     table = tracked_table(drop, fps=120.0)
     table.loc[table.index % 4 == 1, "quality"] = "duplicate"
+    table.loc[:30, "quality"] = "occluded"  # a hand holds the ball
+    table.loc[len(table) - 50:, "quality"] = "lost"  # the ball has left the image
     assert video_limits.recording_measures(table)["clean_fraction"] == 1.0
+    table.loc[100:109, "quality"] = "lost"  # 10 frames lost in mid-flight, of them 2 duplicates anyway
+    between = table.loc[31:len(table) - 51, "quality"]
+    expected = np.count_nonzero(between == "ok") / np.count_nonzero(between != "duplicate")
+    assert video_limits.recording_measures(table)["clean_fraction"] == pytest.approx(expected)
 
 
 def test_recording_violations_name_each_limit_with_value_and_limit():
