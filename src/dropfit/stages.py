@@ -12,7 +12,7 @@ from pathlib import Path
 import numpy as np
 import yaml
 
-from . import __version__
+from . import __version__, video_limits
 from .analysis import analyse_bounces
 from .contact import fit_linear_contact
 from .errors import InputError
@@ -91,6 +91,8 @@ def analyse(trajectory_path, impacts_path, flights_path, summary_path, drag="aut
                              source=attrs.get("source", str(trajectory_path)),
                              scale_rel_se=float(attrs.get("scale_rel_se", 0.0)),
                              contact_height_se_m=float(attrs.get("floor_se_m", 0.0)), contact_guard_s=guard)
+    if "video" in attrs:  # a video's later bounces may be too briefly filmed to resolve
+        result = video_limits.select_resolved_impacts(result, attrs["video"])
     summary = dict(result.summary)
     summary["e_covariance"] = result.e_covariance.tolist()
     summary["trajectory_attrs"] = {key: _plain(value) for key, value in trajectory.attrs.items()}

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from . import video_limits
 from .calibration import SCALE_PRECEDENCE, choose_scale, infer_capture_rate, ruler_scale
 from .errors import InputError
 from .heightlog import flight_acceleration, make_trajectory, scale_from_gravity
@@ -148,6 +149,7 @@ def trajectory_from_video(path, ball_radius_m=None, scale_m_per_px=None, capture
     table = track_video(path, capture_fps=capture_fps)
     table = table[table["quality"] != "duplicate"]  # a repeated frame carries no new instant
     usable = usable_rows(table)
+    video_limits.check_recording(table, path)  # refuse below the limits of benchmarks/video_failure_sweep.py
     if np.count_nonzero(usable) < 10:
         raise InputError(f"{path}: the ball is measured cleanly in only {np.count_nonzero(usable)} frames")
     rows = np.where(usable, table["y_px"].to_numpy(), np.nan)

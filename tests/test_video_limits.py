@@ -1,0 +1,148 @@
+"""Where video analysis fails: each limit refuses a recording below it; above them e matches the truth."""
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from dropfit import stages, video_limits
+from dropfit.analysis import analyse_bounces
+from dropfit.contact import LinearContact
+from dropfit.errors import InputError
+from dropfit.synth import simulate_drop
+from dropfit.video_synth import Camera, Scene, render_video
+from dropfit.videolog import trajectory_from_video
+
+E_TOLERANCE = 0.002  # dimensionless: the sweep's clips above the limits are within 3e-4
+NOISE_TOLERANCE = 0.15  # relative, robust noise estimate from ~100 third differences
+PX_PER_M = 200.0  # image scale of the synthetic tables and clips, px/m
+FLOOR_ROW_PX = 205.0  # image row of the floor, px
+BALL_RADIUS_M = 0.025
+
+
+@pytest.fixture(scope="module")
+def drop():
+    """A 0.8 m drop through the seed's spring–damper contact (e ≈ 0.745), released at 0.1 s."""
+    return simulate_drop(0.8, BALL_RADIUS_M, mass_kg=0.057, contact_model=LinearContact(30000.0, 8.2),
+                         release_time_s=0.1)
+
+
+def tracked_table(truth, fps, duration_s=1.7, radius_px=5.0, noise_px=0.02, clean_every=1, seed=0):
+    """A tracked table as :func:`dropfit.tracking.track_video` returns it, from the truth (rows down, px).
+
+    Every ``clean_every``-th frame is ``ok``; the others are ``lost`` (NaN).
+    """
+    rng = np.random.default_rng(seed)
+    time = np.arange(int(round(duration_s * fps))) / fps
+    rows = FLOOR_ROW_PX - truth.height(time) * PX_PER_M + rng.normal(0.0, noise_px, time.size)
+    clean = np.arange(time.size) % clean_every == 0
+    return pd.DataFrame({"frame": np.arange(time.size), "time_s": time, "x_px": np.where(clean, 100.0, np.nan),
+                         "y_px": np.where(clean, rows, np.nan), "radius_px": np.where(clean, radius_px, np.nan),
+                         "quality": np.where(clean, "ok", "lost")})
+
+
+def refusal_of(tmp_path, monkeypatch, table):
+    """The one-line message with which trajectory_from_video refuses ``table`` as a tracked video."""
+    monkeypatch.setattr("dropfit.tracking.track_video", lambda path, capture_fps=None: table)
+    with pytest.raises(InputError) as caught:
+        trajectory_from_video(tmp_path / "clip.avi", ball_radius_m=BALL_RADIUS_M)
+    return str(caught.value)
+
+
+# --- the limit functions ------------------------------------------------------------------------
+
+
+def test_recording_measures_match_the_table_they_were_made_from(drop):
+    table = tracked_table(drop, fps=120.0, radius_px=6.0, noise_px=0.1, clean_every=2)
+    measures = video_limits.recording_measures(table)
+    assert measures["ball_radius_px"] == pytest.approx(6.0)
+    assert measures["clean_fraction"] == pytest.approx(0.5, abs=1 / len(table))
+    assert measures["centre_noise_px"] == pytest.approx(0.1, rel=NOISE_TOLERANCE)
+    assert measures["travel_px"] == pytest.approx(0.8 * PX_PER_M, abs=1.0)  # from release to the floor
+
+
+def test_duplicates_and_frames_before_or_after_the_ball_was_seen_do_not_count_as_lost(drop):
+    table = tracked_table(drop, fps=120.0)
+    table.loc[table.index % 4 == 1, "quality"] = "duplicate"
+    table.loc[:30, "quality"] = "occluded"  # a hand holds the ball
+    table.loc[len(table) - 50:, "quality"] = "lost"  # the ball has left the image
+    assert video_limits.recording_measures(table)["clean_fraction"] == 1.0
+    table.loc[100:109, "quality"] = "lost"  # 10 frames lost in mid-flight, of them 2 duplicates anyway
+    between = table.loc[31:len(table) - 51, "quality"]
+    expected = np.count_nonzero(between == "ok") / np.count_nonzero(between != "duplicate")
+    assert video_limits.recording_measures(table)["clean_fraction"] == pytest.approx(expected)
+
+
+def test_recording_violations_name_each_limit_with_value_and_limit():
+    good = dict(ball_radius_px=5.0, clean_fraction=0.9)
+    assert video_limits.recording_violations(good) == []
+    small = video_limits.recording_violations(dict(good, ball_radius_px=1.6))
+    assert small == [f"tracked ball radius: 1.60 px < {video_limits.MIN_BALL_RADIUS_PX:g} px"]
+    sparse = video_limits.recording_violations(dict(good, clean_fraction=0.1, ball_radius_px=np.nan))
+    assert sparse == [f"frames measured cleanly: 10% < {video_limits.MIN_CLEAN_FRACTION:.0%}"]
+
+
+def test_flight_violation_names_the_impact_and_the_short_flight():
+    limit = video_limits.MIN_CLEAN_FRAMES_PER_FLIGHT
+    assert video_limits.flight_violation(dict(impact=1, n_samples_before=limit, n_samples_after=limit)) is None
+    reason = video_limits.flight_violation(dict(impact=3, n_samples_before=40, n_samples_after=limit - 5))
+    assert reason == f"impact 3: clean frames in the flight after it: {limit - 5} < {limit}"
+
+
+def test_late_short_flights_are_dropped_with_a_reason_and_the_rest_kept(drop):
+    """At 60 frames/s the flights last 24, 36, 27, 20, 15 … frames: impacts from the 4th on are dropped."""
+    table = tracked_table(drop, fps=60.0, duration_s=2.6)
+    heights = (FLOOR_ROW_PX - table["y_px"].to_numpy()) / PX_PER_M
+    analysis = analyse_bounces(table["time_s"].to_numpy(), heights, contact_height_m=BALL_RADIUS_M)
+    kept = video_limits.select_resolved_impacts(analysis, "clip.avi")
+    counts = analysis.impacts[["n_samples_before", "n_samples_after"]].min(axis=1).to_numpy()
+    first_short = int(np.argmax(counts < video_limits.MIN_CLEAN_FRAMES_PER_FLIGHT))
+    assert 1 <= first_short < len(analysis.impacts)  # the test needs both kinds of impact
+    assert len(kept.impacts) == first_short == kept.summary["n_impacts"]
+    assert kept.e_covariance.shape == (first_short, first_short)
+    assert len(kept.flights) == first_short + 1
+    assert kept.summary["impacts_dropped"][0].startswith(f"impact {first_short + 1}: clean frames in the flight")
+    true_e = drop.impacts["e"].to_numpy()[:first_short]
+    assert np.all(np.abs(kept.impacts["e"].to_numpy() - true_e) < E_TOLERANCE)
+
+
+# --- refusals through the workflow's own entry points ---------------------------------------------
+
+
+def test_a_ball_tracked_smaller_than_the_limit_is_refused(tmp_path, monkeypatch, drop):
+    message = refusal_of(tmp_path, monkeypatch, tracked_table(drop, fps=120.0, radius_px=1.6))
+    assert message == f"{tmp_path / 'clip.avi'}: not analysable: tracked ball radius: 1.60 px < 2 px"
+
+
+def test_a_recording_with_too_few_clean_frames_is_refused(tmp_path, monkeypatch, drop):
+    message = refusal_of(tmp_path, monkeypatch, tracked_table(drop, fps=120.0, clean_every=5))
+    assert message == f"{tmp_path / 'clip.avi'}: not analysable: frames measured cleanly: 20% < 30%"
+    assert "\n" not in message
+
+
+def render(tmp_path, truth, fps, seed=0):
+    """A 160 × 220 px clip of ``truth`` (ball radius 5 px, noise σ 2 grey levels); returns its path."""
+    camera = Camera(160, 220, fps, None, px_per_m=PX_PER_M, image_row_of_floor_px=FLOOR_ROW_PX, noise_sigma=2.0)
+    frames = render_video(truth, camera, Scene(), 1.7, seed, tmp_path / "clip.avi")
+    return frames.attrs["video_path"]
+
+
+def measure_and_analyse(tmp_path, video):
+    stages.measure(video, tmp_path / "t.nc", ball_radius_m=BALL_RADIUS_M)
+    stages.analyse(tmp_path / "t.nc", tmp_path / "impacts.csv", tmp_path / "flights.csv", tmp_path / "analysis.json")
+    return pd.read_csv(tmp_path / "impacts.csv")
+
+
+def test_a_30_fps_clip_is_refused_for_its_short_first_flight(tmp_path, drop):
+    """30 frames/s: the 0.4 s fall has at most 12 frames (fewer: the tracker rejects the streaked ones)."""
+    with pytest.raises(InputError) as caught:
+        measure_and_analyse(tmp_path, render(tmp_path, drop, fps=30.0))
+    message = str(caught.value)
+    assert message.startswith(f"{tmp_path / 'clip.avi'}: not analysable: impact 1: clean frames in the flight")
+    assert message.endswith(f" < {video_limits.MIN_CLEAN_FRAMES_PER_FLIGHT}")
+
+
+def test_a_clip_above_the_limits_gives_e_within_tolerance_of_the_truth(tmp_path, drop):
+    impacts = measure_and_analyse(tmp_path, render(tmp_path, drop, fps=120.0))
+    assert len(impacts) >= 2
+    true_e = drop.impacts["e"].to_numpy()[: len(impacts)]
+    assert np.all(np.abs(impacts["e"].to_numpy() - true_e) < E_TOLERANCE)
