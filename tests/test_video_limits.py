@@ -37,7 +37,7 @@ def tracked_table(truth, fps, duration_s=1.7, radius_px=5.0, noise_px=0.02, clea
     clean = np.arange(time.size) % clean_every == 0
     return pd.DataFrame({"frame": np.arange(time.size), "time_s": time, "x_px": np.where(clean, 100.0, np.nan),
                          "y_px": np.where(clean, rows, np.nan), "radius_px": np.where(clean, radius_px, np.nan),
-                         "quality": np.where(clean, "ok", "lost")})
+                         "quality": np.where(clean, "ok", "lost"), "centre_se_px": np.nan, "fit_rms_px": np.nan})
 
 
 def refusal_of(tmp_path, monkeypatch, table):

@@ -148,8 +148,8 @@ def trajectory_from_video(path, ball_radius_m=None, scale_m_per_px=None, capture
 
     table = track_video(path, capture_fps=capture_fps)
     table = table[table["quality"] != "duplicate"]  # a repeated frame carries no new instant
-    usable = usable_rows(table)
     video_limits.check_recording(table, path)  # refuse below the limits of benchmarks/video_failure_sweep.py
+    usable = usable_rows(table)
     if np.count_nonzero(usable) < 10:
         raise InputError(f"{path}: the ball is measured cleanly in only {np.count_nonzero(usable)} frames")
     rows = np.where(usable, table["y_px"].to_numpy(), np.nan)
