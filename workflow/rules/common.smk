@@ -36,7 +36,7 @@ validate(scenarios, schema="../schemas/scenarios.schema.yaml")
 from dropfit.synth import scenario_recordings
 from dropfit.video_synth import default_clips
 
-#: Every synthetic recording rule synth makes (a scenario with drops: n makes n of them).
+#: Every synthetic recording the synth jobs make; a scenario with n drops makes n of them.
 synthetic_recordings = list(scenario_recordings(scenarios["scenarios"]))
 
 #: Where rule synth_video renders the default synthetic videos.
