@@ -129,8 +129,10 @@ def batch_statistics(balls):
         over the balls with a rebound height: ``n_balls_measured``, ``rebound_mean_m`` (mean of the
         ball means, the centre line), ``rebound_sd_between_balls_m`` (their sample standard
         deviation, NaN below two balls), ``rebound_sd_within_balls_m`` (drop-to-drop standard
-        deviation pooled over the balls with two or more drops, NaN if there is none) and its
-        degrees of freedom ``within_balls_dof``.
+        deviation pooled over the balls with two or more drops, NaN if there is none), its degrees
+        of freedom ``within_balls_dof``, the control limits ``control_low_m`` and ``control_high_m``
+        (mean ± 3 ball-to-ball sd, NaN below two balls) and ``out_of_control`` (ids of the balls
+        whose mean lies outside them).
     """
     measured = balls[np.isfinite(balls["rebound_m"])]
     dof = int((measured["n_drops"] - 1).clip(lower=0).sum())

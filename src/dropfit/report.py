@@ -142,6 +142,14 @@ def _definitions(items):
 
 # --- figure -------------------------------------------------------------------------------------
 
+def _png_bytes(fig):
+    """The figure as PNG bytes (110 dpi); the figure is closed."""
+    buffer = io.BytesIO()
+    fig.savefig(buffer, format="png", dpi=110)
+    plt.close(fig)
+    return buffer.getvalue()
+
+
 def _flight_curves(trajectory, flights, analysis):
     """Fitted height of each flight on its fit window, and the fit residuals of the samples in it.
 
@@ -230,10 +238,7 @@ def _figure_png(trajectory, flights, impacts, analysis, fit):
     ax_h.xaxis.get_major_locator().set_params(integer=True)
     ax_h.legend(loc="best", fontsize=8)
 
-    buffer = io.BytesIO()
-    fig.savefig(buffer, format="png", dpi=110)
-    plt.close(fig)
-    return buffer.getvalue()
+    return _png_bytes(fig)
 
 
 # --- per-recording report -----------------------------------------------------------------------
@@ -412,10 +417,7 @@ def _contact_png(model):
     force_axis.legend(handles=handles, loc="lower center", fontsize=9)
     force_axis.set_title(f"fitted contact at v_in = {model['impact_speed_m_s']:.2f} m/s", fontsize=10)
     fig.tight_layout()
-    buffer = io.BytesIO()
-    fig.savefig(buffer, format="png", dpi=110)
-    plt.close(fig)
-    return buffer.getvalue()
+    return _png_bytes(fig)
 
 
 def _section_impacts(impacts):
@@ -649,10 +651,7 @@ def qc_chart_png(batch, recordings, balls, statistics, window):
     ax.set_title(f"batch {batch}: ITF rebound control chart", loc="left")
     ax.grid(axis="y", alpha=0.3)
     ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=2, fontsize=9, frameon=False)
-    buffer = io.BytesIO()
-    fig.savefig(buffer, format="png", dpi=110)
-    plt.close(fig)
-    return buffer.getvalue()
+    return _png_bytes(fig)
 
 
 def _cm_pm(value_m, se_m):
