@@ -7,6 +7,7 @@
 #   analyse  results/{sample}/{impacts,flights}.csv, analysis.json
 #   fit      results/{sample}/fit.json                      restitution fit + ITF verdict
 #   report   results/{sample}/report.{html,png}, results/batch/summary.{csv,html}
+#   qc       results/batch/qc_{batch}.{html,png}, qc_{batch}_balls.csv   batch QC per batch of samples.tsv
 #
 # Run:  snakemake --profile workflow/profiles/default
 
@@ -26,6 +27,7 @@ include: "workflow/rules/measure.smk"
 include: "workflow/rules/analyse.smk"
 include: "workflow/rules/fit.smk"
 include: "workflow/rules/report.smk"
+include: "workflow/rules/qc.smk"
 
 
 rule all:
@@ -33,3 +35,4 @@ rule all:
         all_reports,
         "results/batch/summary.csv",
         "results/batch/summary.html",
+        all_qc_reports,

@@ -146,6 +146,12 @@ def test_record_failure_propagates_the_original_message(tmp_path, name):
     assert table["status"].tolist() == ["failed"]
     assert table["error"].tolist() == [message]
 
+    result = dropfit("qc", sample / "fit.json", "--ball-ids", "X", "--batch", "b", "--html", "qc.html",
+                     "--figure", "qc.png", "--csv", "balls.csv", cwd=tmp_path)
+    assert result.returncode == 0, result.stderr
+    assert pd.read_csv(tmp_path / "balls.csv")["itf_verdict"].tolist() == ["not analysed"]
+    assert f"<b>{sample.name}</b> (ball X): {escape(message)}" in (tmp_path / "qc.html").read_text(encoding="utf-8")
+
 
 @pytest.mark.parametrize("name", sorted(BAD_LOGS))
 def test_record_failure_in_process_for_every_bad_log(tmp_path, capsys, name):

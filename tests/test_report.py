@@ -6,6 +6,7 @@ import pandas as pd
 import pytest
 
 from dropfit import stages
+from dropfit.errors import InputError
 from dropfit.report import batch_report_html, batch_rows, format_pm
 
 SCENARIOS = """\
@@ -82,3 +83,39 @@ def test_summary_stage_reads_failure_records(run, tmp_path):
     assert table.loc[1, "sample_id"] == "broken" and table.loc[1, "status"] == "failed"
     assert table.loc[1, "error"] == "bad log"
     assert "bad log" in (tmp_path / "summary.html").read_text(encoding="utf-8")
+
+
+def test_qc_stage_groups_drops_by_ball(run, tmp_path):
+    """Three drops of ball A (rebounds 1.40, 1.41, 1.42 m) and a failed fourth: the per-ball mean, the
+    Student-t interval, the verdict, the chart and the failed recording with its reason."""
+    fit = json.loads(run["fit.json"].read_text(encoding="utf-8"))
+    paths = []
+    for index, rebound in enumerate([1.40, 1.41, 1.42]):
+        fit["itf"]["rebound_m"] = {"value": rebound, "se": 0.001}
+        path = tmp_path / f"drop{index + 1}" / "fit.json"
+        path.parent.mkdir()
+        path.write_text(json.dumps(fit), encoding="utf-8")
+        paths.append(path)
+    failed_path = tmp_path / "drop4" / "fit.json"
+    failed_path.parent.mkdir()
+    failed_path.write_text(json.dumps({"status": "failed", "error": "drop4.csv: no bounce found"}), encoding="utf-8")
+    out = {name: tmp_path / "batch" / name for name in ["qc.html", "qc.png", "balls.csv"]}
+    stages.qc(paths + [failed_path], "lot_x", out["qc.html"], out["qc.png"], out["balls.csv"],
+              ball_ids=["A", "A", "A", "A"])
+    balls = pd.read_csv(out["balls.csv"])
+    assert balls["ball_id"].tolist() == ["A"] and balls.loc[0, ["n_drops", "n_failed"]].tolist() == [3, 1]
+    assert balls.loc[0, "rebound_m"] == pytest.approx(1.41, abs=1e-6)  # m
+    assert balls.loc[0, "rebound_ci95_high_m"] == pytest.approx(1.41 + 4.303 * 0.01 / 3 ** 0.5, abs=1e-4)  # m
+    assert balls.loc[0, "itf_verdict"] == "pass"
+    html = out["qc.html"].read_text(encoding="utf-8")
+    for title in ["Batch summary", "Control chart", "Balls", "Drops", "Failed recordings"]:
+        assert f"<h2>{title}</h2>" in html
+    assert "<b>drop4</b> (ball A): drop4.csv: no bounce found" in html
+    assert "141.00 ± 0.58" in html  # cm, ball A's mean and se
+    assert out["qc.png"].read_bytes().startswith(b"\x89PNG\r\n\x1a\n")
+
+
+def test_qc_stage_wants_one_ball_id_per_fit(run, tmp_path):
+    with pytest.raises(InputError, match="2 ball ids for 1 fit results"):
+        stages.qc([run["fit.json"]], "lot_x", tmp_path / "a.html", tmp_path / "a.png", tmp_path / "a.csv",
+                  ball_ids=["A", "B"])

@@ -4,7 +4,8 @@ import numpy as np
 import pytest
 
 from dropfit.physics import total_bouncing_time
-from dropfit.synth import simulate_drop, synthesize
+from dropfit.errors import InputError
+from dropfit.synth import scenario_recordings, simulate_drop, synthesize
 
 from conftest import sensor_log
 
@@ -58,3 +59,26 @@ def test_synthesize_is_reproducible_and_seeded():
     assert log_a.equals(log_b) and truth_a == truth_b
     assert not log_a.equals(log_c)
     assert list(log_a.columns) == ["time_s", "y_mm"]
+
+
+def test_drops_expand_to_seeded_recordings_whose_e0_varies():
+    """A scenario with ``drops: n`` stands for n recordings, seeded seed … seed + n − 1, each with its own e0."""
+    ball = {"drop_height_m": 2.54, "ball": {"radius_m": 0.0335, "mass_kg": 0.057}, "duration_s": 2.0,
+            "restitution": {"kind": "constant", "e0": 0.775, "e0_sd_between_drops": 0.002},
+            "sensor": {"sample_rate_hz": 100, "noise_m": 0.001}}
+    recordings = scenario_recordings({"lot": {**ball, "drops": 3, "seed": 10}, "single": {**ball, "seed": 4}})
+    assert {name: seed for name, (_, seed) in recordings.items()} == {"lot_drop1": 10, "lot_drop2": 11,
+                                                                       "lot_drop3": 12, "single": 4}
+    e_first = [synthesize(scenario, seed)[1]["impacts"][0]["e"] for scenario, seed in recordings.values()]
+    assert len(set(e_first)) == 4  # every drop draws its own e0
+    # the drawn e0 is the seeded normal draw; a constant law keeps it for every impact of the drop
+    assert e_first[0] == pytest.approx(np.random.default_rng(10).normal(0.775, 0.002), abs=1e-15)
+    _, truth = synthesize(*recordings["lot_drop2"])
+    assert {impact["e"] for impact in truth["impacts"]} == {e_first[1]}
+
+
+def test_recording_named_twice_is_an_input_error():
+    ball = {"drop_height_m": 1.0, "ball": {"radius_m": 0.02, "mass_kg": 0.05},
+            "restitution": {"kind": "constant", "e0": 0.8}, "sensor": {"sample_rate_hz": 100}}
+    with pytest.raises(InputError, match="lot_drop1"):
+        scenario_recordings({"lot": {**ball, "drops": 2}, "lot_drop1": ball})

@@ -26,6 +26,13 @@ CONSTANT_E_SCENARIOS = ["tennis_itf", "steel_ball", "table_tennis_drag"]
 #: (the last one is never written: a missing file must not stop the batch either).
 BAD_SAMPLES = {"bad_empty": "data/bad/empty.csv", "bad_no_bounce": "data/bad/no_bounce.csv",
                "bad_missing": "data/bad/missing.csv"}
+#: The default sample sheet's deliberately bad recording (a log that stops before the first impact).
+DEFAULT_FAILED = "tennis_lot_A_ball3_drop4_truncated"
+#: The ball lot of the default data: ball → ITF verdict it was designed to get (data/synthetic/scenarios.yaml).
+LOT = "tennis_lot_A"
+LOT_VERDICTS = {"A1": "pass", "A2": "pass", "A3": "pass", "A4": "fail", "A5": "indeterminate"}
+#: A ball's mean rebound must match the mean true rebound of its drops to this (about 4 measurement se).
+REBOUND_TOL_M = 0.001  # m
 
 
 def copy_workflow(destination):
@@ -44,9 +51,14 @@ def snakemake(*args, cwd, timeout=QUICK_TIMEOUT_S):
     return subprocess.run([executable, *args], cwd=cwd, capture_output=True, text=True, timeout=timeout)
 
 
+def sample_sheet(root):
+    """The repository's sample sheet (pandas.DataFrame)."""
+    return pd.read_csv(root / "config" / "samples.tsv", sep="\t", comment="#")
+
+
 def good_samples(root):
-    """Sample ids of the repository's sample sheet (all good recordings)."""
-    return pd.read_csv(root / "config" / "samples.tsv", sep="\t", comment="#")["sample_id"].tolist()
+    """Sample ids of the repository's good recordings (all but :data:`DEFAULT_FAILED`)."""
+    return [sample for sample in sample_sheet(root)["sample_id"] if sample != DEFAULT_FAILED]
 
 
 def test_lint_reports_only_conda_and_container_hints(tmp_path):
@@ -72,10 +84,11 @@ def test_dry_run_plans_every_sample(tmp_path):
     assert result.returncode == 0, result.stderr
     output = result.stdout + result.stderr
     counts = dict(re.findall(r"^(\w+)\s+(\d+)$", output, flags=re.MULTILINE))
-    n = len(good_samples(root))
+    sheet = sample_sheet(root)
     for rule in ("measure", "analyse", "fit", "report"):
-        assert int(counts[rule]) == n
+        assert int(counts[rule]) == len(sheet)
     assert int(counts["summary"]) == 1
+    assert int(counts["qc"]) == sheet["batch"].nunique()
 
 
 @pytest.mark.slow
@@ -104,7 +117,8 @@ def test_batch_with_bad_recordings(tmp_path):
         assert fit["sample_id"] == sample
 
     summary = pd.read_csv(root / "results" / "batch" / "summary.csv").set_index("sample_id")
-    assert sorted(summary.index) == sorted(good + list(BAD_SAMPLES))
+    assert sorted(summary.index) == sorted(good + [DEFAULT_FAILED] + list(BAD_SAMPLES))
+    assert summary.loc[DEFAULT_FAILED, "status"] == "failed" and "bounce" in summary.loc[DEFAULT_FAILED, "error"]
     for sample_id, path in BAD_SAMPLES.items():
         assert summary.loc[sample_id, "status"] == "failed"
         assert summary.loc[sample_id, "error"].startswith(path)
@@ -120,3 +134,24 @@ def test_batch_with_bad_recordings(tmp_path):
         fit = json.loads((root / "results" / scenario / "fit.json").read_text(encoding="utf-8"))
         assert fit["restitution"]["e"]["value"] == pytest.approx(truth["e_mean"], abs=E_TOL)
         assert summary.loc[scenario, "e"] == pytest.approx(truth["e_mean"], abs=E_TOL)
+
+    check_lot_qc(root)
+    bad_qc = (root / "results" / "batch" / "qc_bad.html").read_text(encoding="utf-8")
+    assert all(f"<b>{sample_id}</b>" in bad_qc for sample_id in BAD_SAMPLES)
+
+
+def check_lot_qc(root):
+    """The default ball lot's QC report against the generator's truth: verdicts, ball means, failed drop."""
+    sheet = sample_sheet(root).set_index("sample_id")
+    balls = pd.read_csv(root / "results" / "batch" / f"qc_{LOT}_balls.csv").set_index("ball_id")
+    assert balls["itf_verdict"].to_dict() == LOT_VERDICTS
+    for ball, drops in sheet[sheet["batch"] == LOT].groupby("ball_id"):
+        truth = [json.loads((root / "data" / "synthetic" / f"{sample}.truth.json").read_text(encoding="utf-8"))
+                 for sample in drops.index if sample != DEFAULT_FAILED]
+        true_mean = np.mean([record["impacts"][0]["rebound_height_m"] for record in truth])
+        assert balls.loc[ball, "rebound_m"] == pytest.approx(true_mean, abs=REBOUND_TOL_M)
+        assert balls.loc[ball, "n_drops"] == len(truth)
+    assert balls.loc["A3", "n_failed"] == 1
+    html = (root / "results" / "batch" / f"qc_{LOT}.html").read_text(encoding="utf-8")
+    assert f"<b>{DEFAULT_FAILED}</b> (ball A3)" in html
+    assert (root / "results" / "batch" / f"qc_{LOT}.png").read_bytes().startswith(b"\x89PNG")

@@ -84,6 +84,17 @@ def _parser():
     summary.add_argument("fits", nargs="+", help="fit.json files, one per recording")
     summary.add_argument("--csv", required=True)
     summary.add_argument("--html", required=True)
+
+    qc = sub.add_parser("qc", help="batch QC report: per-ball ITF verdicts, batch statistics, control chart")
+    qc.add_argument("fits", nargs="+", help="fit.json files, one per recording (drop) of the batch")
+    qc.add_argument("--ball-ids", nargs="+", help="ball of each fit file, in the same order (default: one ball each)")
+    qc.add_argument("--batch", required=True, help="batch name (report title)")
+    qc.add_argument("--html", required=True, help="QC report to write (HTML)")
+    qc.add_argument("--figure", required=True, help="control chart to write (PNG)")
+    qc.add_argument("--csv", required=True, help="per-ball table to write (CSV, heights in m)")
+    qc.add_argument("--itf-drop-height-m", type=float, default=ITF_DROP_HEIGHT_M)
+    qc.add_argument("--itf-rebound-min-m", type=float, default=ITF_REBOUND_MIN_M)
+    qc.add_argument("--itf-rebound-max-m", type=float, default=ITF_REBOUND_MAX_M)
     return parser
 
 
@@ -113,6 +124,9 @@ def _run(args):
         stages.report(args.trajectory, args.flights, args.impacts, args.analysis, args.fit, args.html, args.figure)
     elif args.command == "summary":
         stages.summary(args.fits, args.csv, args.html)
+    elif args.command == "qc":
+        stages.qc(args.fits, args.batch, args.html, args.figure, args.csv, args.ball_ids, args.itf_drop_height_m,
+                  args.itf_rebound_min_m, args.itf_rebound_max_m)
 
 
 _OUTPUTS = {"measure": ["out"], "analyse": ["impacts", "flights", "summary"], "fit": ["out"],

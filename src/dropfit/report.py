@@ -12,6 +12,7 @@ import math
 from html import escape
 
 import matplotlib
+import matplotlib.ticker
 
 matplotlib.use("Agg")  # reports are made in batch jobs without a display
 
@@ -49,6 +50,8 @@ dd { margin: 0; }
 .verdict-fail { background: #f6c6c6; }
 .verdict-indeterminate { background: #f6e6b0; }
 .verdict-not-applicable { background: #e4e4e4; }
+.verdict-not-analysed { background: #e4e4e4; }
+.verdict-cell { padding: 0 0.4em; border-radius: 0.2em; }
 tr.failed td { background: #fbe0e0; }
 code { word-break: break-all; }
 img { max-width: 100%; }
@@ -139,6 +142,14 @@ def _definitions(items):
 
 # --- figure -------------------------------------------------------------------------------------
 
+def _png_bytes(fig):
+    """The figure as PNG bytes (110 dpi); the figure is closed."""
+    buffer = io.BytesIO()
+    fig.savefig(buffer, format="png", dpi=110)
+    plt.close(fig)
+    return buffer.getvalue()
+
+
 def _flight_curves(trajectory, flights, analysis):
     """Fitted height of each flight on its fit window, and the fit residuals of the samples in it.
 
@@ -217,16 +228,17 @@ def _figure_png(trajectory, flights, impacts, analysis, fit):
     ax_h.plot(bounce, np.concatenate([[h0["value"]], heights["predicted_m"]]), "-", color="tab:orange",
               label="$e^{2n} h_0$ (constant e, no drag)")
     ax_h.set_yscale("log")
-    ax_h.set_xlabel("bounce number n")
+    # plain decimal tick labels (0.5, 1, 2) rather than powers of ten such as 2×10⁰
+    ax_h.yaxis.set_major_locator(matplotlib.ticker.LogLocator(subs=(1.0, 2.0, 5.0)))
+    ax_h.yaxis.set_major_formatter(matplotlib.ticker.FuncFormatter(lambda value, _: f"{value:g}"))
+    ax_h.yaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
+    ax_h.set_xlabel("bounce number n (count)")
     ax_h.set_ylabel("apex height above contact $h_n$ (m)")
     ax_h.set_title("(d) apex heights", loc="left")
     ax_h.xaxis.get_major_locator().set_params(integer=True)
     ax_h.legend(loc="best", fontsize=8)
 
-    buffer = io.BytesIO()
-    fig.savefig(buffer, format="png", dpi=110)
-    plt.close(fig)
-    return buffer.getvalue()
+    return _png_bytes(fig)
 
 
 # --- per-recording report -----------------------------------------------------------------------
@@ -417,13 +429,12 @@ def _contact_png(model):
     depth_axis = force_axis.twinx()
     depth_axis.plot(1e3 * result.time_s, 1e3 * result.penetration_m, color="C0", ls="--", label="penetration δ")
     depth_axis.set_ylabel("penetration δ (mm)")
-    fig.legend(loc="upper right", fontsize=8)
-    force_axis.set_title(f"fitted contact at v_in = {model['impact_speed_m_s']:.2f} m/s", fontsize=9)
+    # one legend for both axes, low in the middle where both curves are high (a figure legend hid the right axis)
+    handles = force_axis.get_legend_handles_labels()[0] + depth_axis.get_legend_handles_labels()[0]
+    force_axis.legend(handles=handles, loc="lower center", fontsize=9)
+    force_axis.set_title(f"fitted contact at v_in = {model['impact_speed_m_s']:.2f} m/s", fontsize=10)
     fig.tight_layout()
-    buffer = io.BytesIO()
-    fig.savefig(buffer, format="png", dpi=110)
-    plt.close(fig)
-    return buffer.getvalue()
+    return _png_bytes(fig)
 
 
 def _section_impacts(impacts):
@@ -586,3 +597,191 @@ def batch_report_html(table):
             f"<h1>dropfit batch summary</h1>\n"
             f"<p>{len(table)} recordings: {int((~failed).sum())} analysed, {int(failed.sum())} failed.</p>\n"
             f"<table>\n<tr>{head}</tr>\n{rows}\n</table>\n</body>\n</html>\n")
+
+
+# --- batch QC report ----------------------------------------------------------------------------
+
+_VERDICT_COLOURS = {"pass": "tab:green", "fail": "tab:red", "indeterminate": "tab:orange"}
+
+
+def _ball_label(ball):
+    """Tick label of a ball: its id, and how many of its drops failed."""
+    return ball.ball_id + (f"\n({ball.n_failed} failed)" if ball.n_failed else "")
+
+
+def qc_chart_png(batch, recordings, balls, statistics, window):
+    """Control chart of the 254 cm rebound height per drop, grouped by ball (PNG bytes).
+
+    Parameters
+    ----------
+    batch : str
+        Batch name (title).
+    recordings : pandas.DataFrame
+        Per-recording table with ``ball_id``, ``status``, ``itf_rebound_m`` and ``itf_rebound_se_m`` (m).
+    balls : pandas.DataFrame
+        Per-ball table of :func:`dropfit.batch.ball_rows`.
+    statistics : dict
+        Batch statistics of :func:`dropfit.batch.batch_statistics` (heights in m).
+    window : dict
+        The ITF test: ``drop_height_m``, ``rebound_min_m``, ``rebound_max_m`` (m).
+
+    Returns
+    -------
+    bytes
+        The PNG; without any rebound height (not tennis balls, or every drop failed) an empty chart
+        that says so.
+    """
+    measured = balls[np.isfinite(balls["rebound_m"])]
+    cm = 100.0
+    rebound_min_m, rebound_max_m = window["rebound_min_m"], window["rebound_max_m"]
+    fig, ax = plt.subplots(figsize=(max(6.5, 1.3 * len(measured) + 3), 5.2), layout="constrained")
+    ax.axhspan(cm * rebound_min_m, cm * rebound_max_m, color="tab:green", alpha=0.08)
+    for limit in (rebound_min_m, rebound_max_m):
+        ax.axhline(cm * limit, color="tab:red", ls="--", lw=1.2,
+                   label=f"ITF limits {cm * rebound_min_m:.0f} / {cm * rebound_max_m:.0f} cm"
+                   if limit == rebound_min_m else None)
+    centre = statistics["rebound_mean_m"]
+    if np.isfinite(centre):
+        ax.axhline(cm * centre, color="0.3", lw=1.2, label=f"batch mean of balls {cm * centre:.1f} cm")
+    if np.isfinite(statistics["control_low_m"]):
+        for limit in ("control_low_m", "control_high_m"):
+            ax.axhline(cm * statistics[limit], color="tab:blue", ls=":", lw=1.5,
+                       label="control limits: mean ± 3 sd of the ball means" if limit == "control_low_m" else None)
+    for x, ball in enumerate(measured.itertuples()):
+        drops = recordings[(recordings["ball_id"] == ball.ball_id) & (recordings["status"] != "failed")]
+        offsets = x - 0.15 + np.linspace(-0.08, 0.08, len(drops)) if len(drops) > 1 else np.array([x - 0.15])
+        ax.errorbar(offsets, cm * drops["itf_rebound_m"], yerr=cm * Z95 * drops["itf_rebound_se_m"], fmt="o",
+                    ms=4, color="0.45", capsize=2, label="drops (±1.96 se)" if x == 0 else None)
+        colour = _VERDICT_COLOURS.get(ball.itf_verdict, "0.3")
+        ax.errorbar([x + 0.15], [cm * ball.rebound_m],
+                    yerr=[[cm * (ball.rebound_m - ball.rebound_ci95_low_m)],
+                          [cm * (ball.rebound_ci95_high_m - ball.rebound_m)]],
+                    fmt="D", ms=7, color=colour, capsize=4, lw=2)
+    for verdict, colour in _VERDICT_COLOURS.items():  # legend entries of the ball means, by verdict
+        ax.errorbar([], [], yerr=[], fmt="D", ms=7, color=colour, label=f"ball mean, 95 % interval: {verdict}")
+    if measured.empty:
+        ax.text(0.5, 0.5, "no ball of this batch has an ITF rebound height", transform=ax.transAxes, ha="center")
+    ax.set_xticks(range(len(measured)), [_ball_label(ball) for ball in measured.itertuples()])
+    ax.set_xlim(-0.6, len(measured) - 0.4)
+    ax.set_xlabel("ball")
+    ax.set_ylabel(f"rebound height from a {cm * window['drop_height_m']:.0f} cm drop (cm)")
+    ax.set_title(f"batch {batch}: ITF rebound control chart", loc="left")
+    ax.grid(axis="y", alpha=0.3)
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=2, fontsize=9, frameon=False)
+    return _png_bytes(fig)
+
+
+def _cm_pm(value_m, se_m):
+    """A height in m shown in cm as ``value ± se``."""
+    return escape(format_pm(100 * value_m, 100 * se_m))
+
+
+def _cm_interval(low_m, high_m, se_m):
+    """A 95 % interval in m shown in cm, to the precision of its standard error."""
+    return escape(_format_interval([100 * low_m, 100 * high_m], 100 * se_m))
+
+
+def _verdict_cell(verdict):
+    return f'<span class="verdict-cell verdict-{escape(str(verdict)).replace(" ", "-")}">{_text(verdict)}</span>'
+
+
+def _qc_summary(statistics, window):
+    counts = ", ".join(f"{count} {verdict}" for verdict, count in statistics["verdict_counts"].items() if count)
+    outside = statistics["out_of_control"]
+    cm = 100.0
+    if np.isfinite(statistics["control_low_m"]):
+        control = (f"{cm * statistics['control_low_m']:.1f} cm to {cm * statistics['control_high_m']:.1f} cm "
+                   f"(batch mean ± 3 ball-to-ball sd): "
+                   + (f"{', '.join(outside)} outside" if outside else "every ball mean inside"))
+    else:
+        control = "no control limits: fewer than two balls have a rebound height"
+    return _definitions([
+        ("Balls", f"{statistics['n_balls']} ({statistics['n_balls_measured']} with a rebound height)"),
+        ("Verdicts", _text(counts)),
+        ("ITF window", escape(f"rebound from {cm * window['drop_height_m']:.0f} cm between "
+                              f"{cm * window['rebound_min_m']:.0f} cm and {cm * window['rebound_max_m']:.0f} cm "
+                              f"(pass: the ball's 95 % interval inside; fail: wholly outside; "
+                              f"indeterminate: straddles a limit)")),
+        ("Batch mean rebound", _quantity(statistics["rebound_mean_m"], cm, ".2f", "cm")
+         + " (mean of the ball means; centre line)"),
+        ("Ball-to-ball spread", _quantity(statistics["rebound_sd_between_balls_m"], cm, ".2f", "cm")
+         + " (standard deviation of the ball means)"),
+        ("Drop-to-drop spread", _quantity(statistics["rebound_sd_within_balls_m"], cm, ".2f", "cm")
+         + f" (standard deviation pooled over the balls, {statistics['within_balls_dof']} degrees of freedom)"),
+        ("Control limits", escape(control)),
+    ])
+
+
+def _qc_balls_table(balls):
+    rows = []
+    for ball in balls.itertuples():
+        rows.append([
+            (_text(ball.ball_id), False), (_text(ball.n_drops), True), (_text(ball.n_failed), True),
+            (_cm_pm(ball.rebound_m, ball.rebound_se_m), True),
+            (_cm_interval(ball.rebound_ci95_low_m, ball.rebound_ci95_high_m, ball.rebound_se_m), True),
+            (_num(100 * ball.rebound_sd_between_drops_m, ".2f"), True), (_text(ball.rebound_se_from), False),
+            (escape(format_pm(ball.e, ball.e_se)), True), (_num(ball.e_sd_between_drops, ".4f"), True),
+            (_verdict_cell(ball.itf_verdict), False),
+        ])
+    return _table(["ball", "drops", "failed drops", "rebound ± se (cm)", "rebound 95 % interval (cm)",
+                   "drop-to-drop sd (cm)", "se from", "e ± se (1)", "drop-to-drop sd of e (1)", "ITF verdict"], rows)
+
+
+def _qc_drops_table(recordings):
+    rows = [[(_text(row.sample_id), False), (_text(row.ball_id), False), (_text(row.status), False),
+             (_cm_pm(row.itf_rebound_m, row.itf_rebound_se_m), True), (escape(format_pm(row.e, row.e_se)), True),
+             (_text(row.itf_verdict), False)]
+            for row in recordings.itertuples(index=False)]
+    return _table(["recording", "ball", "status", "rebound ± se (cm)", "e ± se (1)", "ITF verdict of the drop"], rows)
+
+
+def _qc_failed_list(failed):
+    if failed.empty:
+        return "<p>None: every recording was analysed.</p>"
+    items = "".join(f"<li><b>{_text(row.sample_id)}</b> (ball {_text(row.ball_id)}): {_text(row.reason)}</li>\n"
+                    for row in failed.itertuples(index=False))
+    return f"<ul>\n{items}</ul>"
+
+
+def qc_report_html(batch, recordings, balls, statistics, failed, window, png):
+    """The self-contained batch QC page: batch summary, control chart, per-ball and per-drop tables,
+    failed recordings.
+
+    Parameters
+    ----------
+    batch : str
+        Batch name.
+    recordings : pandas.DataFrame
+        Per-recording table (:func:`batch_rows` with ``ball_id``).
+    balls, statistics, failed
+        Outputs of :func:`dropfit.batch.ball_rows`, :func:`dropfit.batch.batch_statistics` and
+        :func:`dropfit.batch.failed_recordings`.
+    window : dict
+        The ITF test: ``drop_height_m``, ``rebound_min_m``, ``rebound_max_m`` (m).
+    png : bytes
+        The control chart, embedded as base64.
+
+    Returns
+    -------
+    str
+        The HTML page.
+    """
+    chart = (f'<img alt="control chart of the rebound heights of batch {escape(batch)}" '
+             f'src="data:image/png;base64,{base64.b64encode(png).decode("ascii")}">')
+    sections = [
+        ("Batch summary", _qc_summary(statistics, window)),
+        ("Control chart", chart),
+        ("Balls", "<p>Mean over each ball's analysed drops; the standard error is the larger of the "
+                  "drop-to-drop scatter (sd/√n) and the propagated measurement errors, the 95 % interval "
+                  "uses Student's t with n − 1 degrees of freedom (±1.96 se for one drop).</p>\n"
+                  + _qc_balls_table(balls)),
+        ("Drops", _qc_drops_table(recordings)),
+        ("Failed recordings", _qc_failed_list(failed)),
+    ]
+    body = "\n".join(f"<h2>{escape(title)}</h2>\n{content}" for title, content in sections)
+    n_failed = len(failed)
+    return (f"<!doctype html>\n<html lang='en'>\n<head>\n<meta charset='utf-8'>\n"
+            f"<title>dropfit batch QC: {escape(batch)}</title>\n<style>{_CSS}</style>\n</head>\n<body>\n"
+            f"<h1>dropfit batch QC: {escape(batch)}</h1>\n"
+            f"<p>{len(recordings)} recordings of {len(balls)} balls: {len(recordings) - n_failed} analysed, "
+            f"{n_failed} failed.</p>\n{body}\n</body>\n</html>\n")

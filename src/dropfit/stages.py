@@ -22,7 +22,7 @@ from .physics import SPHERE_DRAG_COEFFICIENT, STANDARD_GRAVITY_M_S2, drag_parame
 from .restitution import (ITF_DROP_HEIGHT_M, ITF_REBOUND_MAX_M, ITF_REBOUND_MIN_M, constant_restitution,
                           drag_shift, estimate, itf_rebound, itf_verdict, theory_checks)
 from .speed_dependence import fit_speed_dependence, predict_e
-from .synth import synthesize
+from .synth import scenario_recordings, synthesize
 from .videolog import is_video, trajectory_from_video
 
 
@@ -30,10 +30,12 @@ def synth(scenarios_path, name, log_path, truth_path, seed=None):
     """Generate the height log and ground truth of scenario ``name`` from a scenarios YAML file."""
     try:
         scenarios = yaml.safe_load(Path(scenarios_path).read_text(encoding="utf-8"))["scenarios"]
-        scenario = scenarios[name]
+        scenario, scenario_seed = scenario_recordings(scenarios)[name]
+    except InputError as error:
+        raise InputError(f"{scenarios_path}: {error}") from None
     except (OSError, KeyError, TypeError, yaml.YAMLError) as error:
         raise InputError(f"{scenarios_path}: no scenario {name!r} ({type(error).__name__}: {error})") from None
-    log, truth = synthesize(scenario, scenario.get("seed", 0) if seed is None else seed)
+    log, truth = synthesize(scenario, scenario_seed if seed is None else seed)
     truth["scenario_name"] = name
     unit = log.columns[1]
     header = (f"# dropfit height log (synthetic scenario {name}, seed {truth['seed']})\n"
@@ -277,10 +279,9 @@ def report(trajectory_path, flights_path, impacts_path, analysis_path, fit_path,
                            read_json(analysis_path), read_json(fit_path), html_path, figure_path)
 
 
-def summary(fit_paths, csv_path, html_path):
-    """Batch summary over recordings: one row per fit result, failed recordings with their message."""
-    from .report import batch_report_html, batch_rows
-
+def _read_fits(fit_paths):
+    """Fit results of the recordings, a failed one as ``{"status": "failed", "error": ..., "sample_id": ...}``
+    (the sample id is the name of the fit file's directory)."""
     rows = []
     for path in fit_paths:
         try:
@@ -291,7 +292,43 @@ def summary(fit_paths, csv_path, html_path):
         if data.get("status") == "failed":
             data["sample_id"] = Path(path).parent.name
         rows.append(data)
-    table = batch_rows(rows)
+    return rows
+
+
+def summary(fit_paths, csv_path, html_path):
+    """Batch summary over recordings: one row per fit result, failed recordings with their message."""
+    from .report import batch_report_html, batch_rows
+
+    table = batch_rows(_read_fits(fit_paths))
     with atomic_output(csv_path) as tmp:
         table.to_csv(tmp, index=False, float_format="%.6g")
     write_text(html_path, batch_report_html(table))
+
+
+def qc(fit_paths, batch, html_path, figure_path, csv_path, ball_ids=None, itf_drop_height_m=ITF_DROP_HEIGHT_M,
+       itf_rebound_min_m=ITF_REBOUND_MIN_M, itf_rebound_max_m=ITF_REBOUND_MAX_M):
+    """Batch QC report: per-ball table (CSV), control chart (PNG) and HTML page over one batch's recordings.
+
+    ``ball_ids`` names the ball of each fit result (default: every recording is a ball of its own);
+    the ITF window is in m.
+    """
+    from .batch import ball_rows, batch_statistics, failed_recordings
+    from .report import batch_rows, qc_chart_png, qc_report_html
+
+    ball_ids = list(ball_ids) if ball_ids else [Path(path).parent.name for path in fit_paths]
+    if len(ball_ids) != len(fit_paths):
+        raise InputError(f"batch {batch}: {len(ball_ids)} ball ids for {len(fit_paths)} fit results; "
+                         f"give one ball id per fit result")
+    recordings = batch_rows(_read_fits(fit_paths))
+    recordings.insert(1, "ball_id", ball_ids)
+    window = {"drop_height_m": itf_drop_height_m, "rebound_min_m": itf_rebound_min_m,
+              "rebound_max_m": itf_rebound_max_m}
+    balls = ball_rows(recordings, itf_rebound_min_m, itf_rebound_max_m)
+    statistics = batch_statistics(balls)
+    png = qc_chart_png(batch, recordings, balls, statistics, window)
+    with atomic_output(csv_path) as tmp:
+        balls.to_csv(tmp, index=False, float_format="%.6g")
+    with atomic_output(figure_path) as tmp:
+        tmp.write_bytes(png)
+    write_text(html_path, qc_report_html(batch, recordings, balls, statistics, failed_recordings(recordings),
+                                         window, png))

@@ -15,6 +15,7 @@ import numpy as np
 import pandas as pd
 
 from .contact import HuntCrossleyContact, LinearContact, simulate_contact
+from .errors import InputError
 from .physics import (STANDARD_GRAVITY_M_S2, apex_rise, drag_parameter, flight_height, restitution,
                       speed_below_apex, time_from_apex, total_bouncing_time)
 
@@ -219,6 +220,41 @@ def _contact_model(spec):
     return HuntCrossleyContact(spec["stiffness"], spec.get("exponent", 1.5), spec["damping_s_m"])
 
 
+def scenario_recordings(scenarios):
+    """Every synthetic recording the scenarios stand for, by name.
+
+    A scenario stands for one recording of its own name, or, with ``drops: n``, for n drops of the
+    same ball named ``<name>_drop1`` … ``<name>_drop<n>``, drop k seeded with ``seed + k − 1``.
+
+    Parameters
+    ----------
+    scenarios : dict
+        Scenario name → scenario (the ``scenarios`` mapping of ``data/synthetic/scenarios.yaml``).
+
+    Returns
+    -------
+    dict
+        Recording name → (scenario dict, seed).
+    """
+    recordings = {}
+    for name, scenario in scenarios.items():
+        seed = scenario.get("seed", 0)
+        drops = scenario.get("drops")
+        names = [name] if drops is None else [f"{name}_drop{k}" for k in range(1, drops + 1)]
+        for offset, recording in enumerate(names):
+            if recording in recordings:
+                raise InputError(f"synthetic recording {recording!r} is named twice in the scenarios")
+            recordings[recording] = (scenario, seed + offset)
+    return recordings
+
+
+def _drop_restitution(model, rng):
+    """The restitution law of one drop: e0 drawn once per drop where ``e0_sd_between_drops`` is given."""
+    if not model or not model.get("e0_sd_between_drops"):
+        return model
+    return {**model, "e0": float(rng.normal(model["e0"], model["e0_sd_between_drops"]))}
+
+
 def synthesize(scenario, seed):
     """Run one scenario (a dict as in ``data/synthetic/scenarios.yaml``).
 
@@ -228,11 +264,12 @@ def synthesize(scenario, seed):
         The height log and its ground truth.
     """
     ball = scenario["ball"]
+    rng = np.random.default_rng(seed)
     truth = simulate_drop(
         drop_height_m=scenario["drop_height_m"],
         radius_m=ball["radius_m"],
         mass_kg=ball["mass_kg"],
-        restitution_model=scenario.get("restitution"),
+        restitution_model=_drop_restitution(scenario.get("restitution"), rng),
         contact_model=_contact_model(scenario.get("contact")),
         drag_coefficient=scenario.get("drag_coefficient", 0.0),
         gravity_m_s2=scenario.get("gravity_m_s2", STANDARD_GRAVITY_M_S2),
@@ -240,7 +277,6 @@ def synthesize(scenario, seed):
         max_time_s=scenario.get("duration_s", np.inf),
     )
     sensor = scenario["sensor"]
-    rng = np.random.default_rng(seed)
     log = sample_height_log(
         truth,
         rng,

@@ -16,20 +16,28 @@ validate(config, schema="../schemas/config.schema.yaml")
 samples = pd.read_csv(
     config["samples"],
     sep="\t",
-    dtype={"sample_id": str, "kind": str, "path": str, "ball_type": str, "batch": str},
+    dtype={"sample_id": str, "kind": str, "path": str, "ball_type": str, "batch": str, "ball_id": str},
     comment="#",
 )
 validate(samples, schema="../schemas/samples.schema.yaml")
 samples = samples.set_index("sample_id", drop=False)
 if not samples.index.is_unique:
     raise ValueError(f"duplicate sample_id in {config['samples']}")
+# the optional grouping columns: a recording without a ball is a ball of its own, one without a batch
+# belongs to the batch "unbatched"
+samples["ball_id"] = samples.get("ball_id", pd.Series(dtype=str)).reindex(samples.index).fillna(samples["sample_id"])
+samples["batch"] = samples.get("batch", pd.Series(dtype=str)).reindex(samples.index).fillna("unbatched")
 
 with open(config["scenarios"]) as handle:
     scenarios = yaml.safe_load(handle)
 validate(scenarios, schema="../schemas/scenarios.schema.yaml")
 
 
+from dropfit.synth import scenario_recordings
 from dropfit.video_synth import default_clips
+
+#: Every synthetic recording the synth jobs make; a scenario with n drops makes n of them.
+synthetic_recordings = list(scenario_recordings(scenarios["scenarios"]))
 
 #: Where rule synth_video renders the default synthetic videos.
 VIDEO_DIR = "results/video"
@@ -43,7 +51,8 @@ def _alternatives(names):
 
 wildcard_constraints:
     sample=_alternatives(samples.index),
-    scenario=_alternatives(scenarios["scenarios"]),
+    scenario=_alternatives(synthetic_recordings),
+    batch=_alternatives(samples["batch"].unique()),
     clip=_alternatives(video_clips),
 
 
@@ -78,6 +87,26 @@ def all_fits(wildcards):
     return expand("results/{sample}/fit.json", sample=samples.index)
 
 
+def all_qc_reports(wildcards):
+    """QC report of every batch."""
+    return expand("results/batch/qc_{batch}.html", batch=samples["batch"].unique())
+
+
+def batch_samples(wildcards):
+    """Sample-sheet rows (pandas.DataFrame) of the recordings of ``wildcards.batch``."""
+    return samples[samples["batch"] == wildcards.batch]
+
+
+def batch_fits(wildcards):
+    """fit.json of every recording of the batch, in sample-sheet order."""
+    return expand("results/{sample}/fit.json", sample=batch_samples(wildcards).index)
+
+
+def batch_ball_ids(wildcards):
+    """Ball id of every recording of the batch, in the order of :func:`batch_fits`, shell-quoted."""
+    return " ".join(shlex.quote(str(ball)) for ball in batch_samples(wildcards)["ball_id"])
+
+
 def output_directory(wildcards, output):
     """Directory of a rule's first output (for commands that take a directory)."""
     return os.path.dirname(output[0])
@@ -95,7 +124,7 @@ def measure_input(wildcards):
     ``dropfit measure`` writes the failure record that names the missing file.
     """
     path = recording_path(wildcards)
-    synthetic = {f"data/synthetic/{name}.csv" for name in scenarios["scenarios"]}
+    synthetic = {f"data/synthetic/{name}.csv" for name in synthetic_recordings}
     synthetic |= {f"{VIDEO_DIR}/{clip}.avi" for clip in video_clips}
     if os.path.exists(path) or os.path.normpath(path) in synthetic:
         return path
@@ -129,16 +158,27 @@ def analyse_args(wildcards):
     )
 
 
+def _itf_window():
+    """(flag, value) pairs of the ITF drop height and rebound limits (m) from the config."""
+    itf = config.get("itf", {})
+    return [
+        ("--itf-drop-height-m", itf.get("drop_height_m")),
+        ("--itf-rebound-min-m", itf.get("rebound_min_m")),
+        ("--itf-rebound-max-m", itf.get("rebound_max_m")),
+    ]
+
+
 def fit_args(wildcards):
     """Optional ``dropfit fit`` flags: ball type and the ITF rebound test limits (m)."""
     row = sample_row(wildcards)
     itf = config.get("itf", {})
     return _options(
-        [
-            ("--ball-type", row.get("ball_type")),
-            ("--itf-drop-height-m", itf.get("drop_height_m")),
-            ("--itf-rebound-min-m", itf.get("rebound_min_m")),
-            ("--itf-rebound-max-m", itf.get("rebound_max_m")),
-            ("--itf-drop-height-tolerance-m", itf.get("drop_height_tolerance_m")),
-        ]
+        [("--ball-type", row.get("ball_type"))]
+        + _itf_window()
+        + [("--itf-drop-height-tolerance-m", itf.get("drop_height_tolerance_m"))]
     )
+
+
+def qc_args(wildcards):
+    """Optional ``dropfit qc`` flags: the ITF rebound test limits (m)."""
+    return _options(_itf_window())
