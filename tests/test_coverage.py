@@ -3,7 +3,8 @@
 Every quantity the analysis and the fit report (per impact e, speeds, rebound heights and contact
 times; per recording the drop height, constant e, the e(v) law, the drag parameter, k, c and the
 predicted 254 cm rebound) is paired with the generator's truth; its 95 % interval must cover the
-truth in 90–98 % of the pairs. benchmarks/coverage.py runs the same with 200 logs per scenario.
+truth in 90–98 % of the pairs. benchmarks/coverage.py runs the same with 200 logs per scenario
+(and, with --videos, the same 200 clips).
 """
 
 import numpy as np
@@ -13,8 +14,8 @@ import pytest
 from dropfit.coverage import SCENARIOS, coverage_table, log_trial, video_trial
 
 COVERAGE_MIN, COVERAGE_MAX = 0.90, 0.98  # fraction of 95 % intervals that cover the truth
-LOGS_PER_SCENARIO = 100  # 500 logs in all; 100 per-recording pairs resolve the band (binomial sd 2 %)
-VIDEOS = 40  # small clips: rendering dominates the time (benchmarks/coverage.py --videos runs 200)
+LOGS_PER_SCENARIO = 100  # 600 logs in all; 100 per-recording pairs resolve the band (binomial sd 2 %)
+VIDEOS = 200  # small clips, about 0.2 s each on a quiet core (rendering dominates)
 MIN_PAIRS = 70  # a coverage from fewer pairs is too noisy to test against the 90–98 % band
 VIDEO_COVERAGE_FLOOR = 0.85  # what the video intervals reach today (200 clips: 90.8 % e, 89.8 % heights)
 VIDEO_BIAS_MAX = 0.6  # largest |mean (value − truth)/se| of the video quantities (200 clips: 0.30, 0.42)
@@ -29,7 +30,9 @@ def log_trials():
             table, fitted = log_trial(scenario, seed)
             pairs.append(table.assign(scenario=name))
             law = fitted["restitution_vs_speed"]
-            choices.append({"scenario": name, "drag": fitted["drag"]["model"], "law": law and law["chosen"]})
+            rebound = fitted["itf"].get("rebound_m")
+            choices.append({"scenario": name, "drag": fitted["drag"]["model"], "law": law and law["chosen"],
+                            "itf_method": rebound and rebound["method"].split()[0]})
     return pd.concat(pairs), pd.DataFrame(choices)
 
 
@@ -56,13 +59,17 @@ def test_per_impact_e_is_covered_in_every_scenario(log_trials):
 @pytest.mark.slow
 def test_the_generating_models_are_chosen(log_trials):
     choices = log_trials[1].groupby("scenario")
-    expected = {"tennis_drag_150cm": (None, "constant"), "steel_weak_drag": ("nominal", "constant"),
-                "rubber_no_drag": ("none", "constant"), "rubber_e_falls": ("none", "linear")}
+    expected = {"tennis_drag_150cm": (None, "constant"), "tennis_e_falls_120cm": (None, "linear"),
+                "steel_weak_drag": ("nominal", "constant"), "rubber_no_drag": ("none", "constant"),
+                "rubber_e_falls": ("none", "linear")}
     for name, (drag, law) in expected.items():
         rows = choices.get_group(name)
         if drag:
             assert np.mean(rows["drag"] == drag) >= CHOICE_MIN, name
         assert np.mean(rows["law"] == law) >= CHOICE_MIN, name
+    # from drops other than 254 cm the ITF rebound is predicted, never taken from the measured one
+    for name in ("tennis_drag_150cm", "tennis_e_falls_120cm"):
+        assert (choices.get_group(name)["itf_method"] == "predicted").all()
 
 
 @pytest.fixture(scope="module")

@@ -3,10 +3,11 @@
 The trajectory is split into flights at the impacts; every flight is fitted with the closed-form
 vertical flight of :mod:`dropfit.physics` (known g, two parameters per flight: apex time and apex
 height), and a quadratic-drag parameter k shared by all flights is fitted only when the Bayesian
-information criterion says the data support it. Otherwise k is held at a nominal value, that of a
-smooth sphere of the ball's size and mass when they are known (0 when not), and its uncertainty
-(:data:`NOMINAL_DRAG_RELATIVE_SE`) is carried into every impact quantity as a systematic error:
-drag too weak to show in the flight shapes still biases e by more than its statistical error. The contact height (the centre height at which
+information criterion says the data support it. Otherwise k is held: when the ball's size and mass are
+known, at that of a smooth sphere (relative se :data:`NOMINAL_DRAG_RELATIVE_SE`) combined with what
+the flights say about k; else at 0. The uncertainty of a held k is carried into every impact
+quantity as a systematic error: drag too weak to show in the flight shapes still biases e by more
+than its statistical error. The contact height (the centre height at which
 the ball touches the floor) is either given or found where the fitted flights before and after
 each impact meet. Every impact quantity is a function of the fitted parameters, so its standard
 error, and the covariance between impacts, follow by propagating the fit covariance through that
@@ -334,9 +335,11 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
     source : str
         Name of the recording, used in error messages.
     nominal_drag_k_per_m : float
-        Drag parameter in 1/m to hold when k is not fitted, e.g. that of a smooth sphere of the ball's
-        size and mass (:func:`dropfit.physics.drag_parameter`); its relative standard error
-        :data:`NOMINAL_DRAG_RELATIVE_SE` is propagated into every impact quantity. 0 = no drag.
+        Prior value of the drag parameter in 1/m, e.g. that of a smooth sphere of the ball's size and
+        mass (:func:`dropfit.physics.drag_parameter`), with relative standard error
+        :data:`NOMINAL_DRAG_RELATIVE_SE`. When BIC keeps k from being fitted freely, k is held at this
+        prior combined with the free fit's k (inverse-variance weights), and its standard error is
+        propagated into every impact quantity. 0 = no drag.
 
     Returns
     -------
@@ -392,19 +395,33 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
 
     with_drag = drag != "off"
     theta0 = np.append(theta_no_drag, 1e-3) if with_drag else theta_no_drag
-    fixed_k = float(nominal_drag_k_per_m or 0.0)
-    fit = _refine(t, y, bounds, with_drag, g, theta0, contact_height_m, noise, fixed_k)
+    held_k = float(nominal_drag_k_per_m or 0.0)
+    held_k_se = NOMINAL_DRAG_RELATIVE_SE * held_k
+    fit = _refine(t, y, bounds, with_drag, g, theta0, contact_height_m, noise, held_k)
     if fit is None:
         raise InputError(f"{source}: the flights could not be fitted (too few samples between bounces)")
     bic = {with_drag: _bic(fit[1])}
     if drag == "auto":
         # compare the two models on the same samples: those the larger model kept
         model, result, _, _, final_bounds = fit
-        rival = _fit_flights(t, y, final_bounds, False, g, result.x[:-1], fixed_k)
+        rival = _fit_flights(t, y, final_bounds, False, g, result.x[:-1], held_k)
         bic[False] = _bic(rival[1])
         if bic[False] <= bic[True]:
-            fit = _refine(t, y, final_bounds, False, g, rival[1].x, contact_height_m, noise, fixed_k) or fit
-    return _report(fit, bic, t_all, y_all, noise, g, float(t[release]), source)
+            if held_k > 0:
+                held_k, held_k_se = _combine_with_prior(result, held_k, held_k_se)
+            fit = _refine(t, y, final_bounds, False, g, rival[1].x, contact_height_m, noise, held_k) or fit
+    return _report(fit, bic, t_all, y_all, noise, g, float(t[release]), source, held_k_se)
+
+
+def _combine_with_prior(result, prior_k, prior_se):
+    """k (1/m) and its se from the free-k fit ``result`` combined with the prior ``prior_k`` ± ``prior_se``
+    by inverse-variance weighting: flights that cannot pin k down on their own still narrow it."""
+    data_se = float(np.sqrt(max(_covariance(result)[-1, -1], 0.0)))
+    if not data_se > 0:
+        return prior_k, prior_se
+    weights = np.array([1.0 / data_se**2, 1.0 / prior_se**2])
+    value = float(weights @ [result.x[-1], prior_k] / weights.sum())
+    return value, float(1.0 / np.sqrt(weights.sum()))
 
 
 #: The flights' own curvature may differ from g by this fraction (drag changes it by a few %).
@@ -560,7 +577,7 @@ def _unpack_quantities(vector, n_impacts):
     return values
 
 
-def _report(fit, bic, t_all, y_all, noise, g, release_time, source):
+def _report(fit, bic, t_all, y_all, noise, g, release_time, source, held_k_se):
     model, result, counts, quantities, bounds = fit
     theta = result.x
     cov_theta = _covariance(result)
@@ -571,7 +588,7 @@ def _report(fit, bic, t_all, y_all, noise, g, release_time, source):
         k_variance = float(cov_theta[-1, -1])
         drag_covariance = jac @ cov_theta[:, -1]
     else:
-        k_variance = (NOMINAL_DRAG_RELATIVE_SE * model.fixed_k) ** 2
+        k_variance = held_k_se**2
         sensitivity = _fixed_drag_sensitivity(model, result, quantities, jac) if model.fixed_k > 0 \
             else np.zeros(vector.size)
         cov += k_variance * np.outer(sensitivity, sensitivity)

@@ -155,9 +155,10 @@ def fit_result(summary, impacts, ball_type=None, itf_drop_height_m=ITF_DROP_HEIG
         else "fixed by the --drag option",
     }
     if summary["drag_model"] == "nominal":
-        drag["note"] = (f"k is not fitted: held at that of a smooth sphere of this size and mass (C_d = "
-                        f"{SPHERE_DRAG_COEFFICIENT}), its {100 * NOMINAL_DRAG_RELATIVE_SE:.0f} % standard error "
-                        f"carried into every e, height and contact time as a systematic error")
+        drag["note"] = (f"k is not fitted freely: held at that of a smooth sphere of this size and mass (C_d = "
+                        f"{SPHERE_DRAG_COEFFICIENT}, {100 * NOMINAL_DRAG_RELATIVE_SE:.0f} % standard error) combined "
+                        f"with what the flights say about k; its standard error is carried into every e, height and "
+                        f"contact time as a systematic error")
     result = {
         "status": "ok",
         "sample_id": attrs.get("sample_id"),
