@@ -88,7 +88,7 @@ def test_video_intervals_are_close_to_their_nominal_coverage(video_coverage):
 
 @pytest.mark.slow
 @pytest.mark.xfail(strict=True, reason="heights from the clips carry a bias of about 0.3–0.4 standard errors "
-                                       "(cause not yet isolated: tracking or rendering), so the intervals cover "
+                                       "(it enters between the image and the tracked centre), so the intervals cover "
                                        "88–91 % instead of 90–98 %")
 def test_video_intervals_cover_the_truth_90_to_98_percent(video_coverage):
     assert video_coverage["coverage"].between(COVERAGE_MIN, COVERAGE_MAX).all(), video_coverage.to_string()
