@@ -106,3 +106,26 @@ def test_integrator_gives_eight_significant_digits():
     assert integrated.e == pytest.approx(exact.e, rel=1e-9)
     assert integrated.contact_time_s == pytest.approx(exact.contact_time_s, rel=1e-9)
     assert integrated.peak_force_n == pytest.approx(exact.peak_force_n, rel=1e-8)
+
+
+SE_RATIO_MIN, SE_RATIO_MAX = 0.85, 1.15  # reported se / Monte-Carlo spread (dimensionless), 400 draws
+
+
+def test_fit_linear_contact_propagates_correlated_errors(seed_contact):
+    """e and contact time share flights, so their errors correlate: the reported se of k and c must
+    match the spread of k and c over draws of correlated (e, contact time), and differ from the se
+    that treats them as independent."""
+    from dropfit.contact import fit_linear_contact
+
+    _, result = seed_contact
+    e_se, time_se, rho = 0.002, 2e-5, 0.8  # dimensionless, s, correlation
+    covariance = np.array([[e_se**2, rho * e_se * time_se], [rho * e_se * time_se, time_se**2]])
+    fitted = fit_linear_contact(MASS_KG, [V0], [result.e], [result.contact_time_s], covariance, G)
+    independent = fit_linear_contact(MASS_KG, [V0], [result.e], [result.contact_time_s],
+                                     np.diag(np.diag(covariance)), G)
+    draws = np.random.default_rng(3).multivariate_normal([result.e, result.contact_time_s], covariance, 400)
+    spread = np.array([linear_from_measurements(MASS_KG, V0, e, tc, G) for e, tc in draws]).std(axis=0, ddof=1)
+    for j, name in enumerate(("stiffness_n_m", "damping_n_s_m")):
+        assert SE_RATIO_MIN < fitted[name][1] / spread[j] < SE_RATIO_MAX
+    # treating them as independent would fail the same check
+    assert not SE_RATIO_MIN < independent["damping_n_s_m"][1] / spread[1] < SE_RATIO_MAX

@@ -67,3 +67,32 @@ def test_theory_checks_reproduce_the_seed_example_3():
     np.testing.assert_allclose([h["predicted_m"] for h in checks["heights"]], [0.5, 0.277, 0.154, 0.085, 0.047],
                                atol=0.0006)  # m, seed rounding
     assert checks["total_bouncing_time"]["predicted"]["value"] == pytest.approx(2.93, abs=0.005)  # s
+
+
+def test_itf_rebound_predicted_carries_the_drag_uncertainty():
+    """The predicted rebound's se adds the drag parameter's se (and its covariance with e) to that of e:
+    checked against the spread over draws of (e, k)."""
+    e, e_se, k, k_se, cov = 0.75, 0.002, 0.01, 0.003, -3e-6  # 1, 1, 1/m, 1/m, 1/m
+    rebound = itf_rebound(1.0, 0.001, 0.55, 0.002, e, e_se, k, G, drag_k_se_per_m=k_se, e_drag_covariance=cov)
+    without = itf_rebound(1.0, 0.001, 0.55, 0.002, e, e_se, k, G)
+    draws = np.random.default_rng(5).multivariate_normal([e, k], [[e_se**2, cov], [cov, k_se**2]], 2000)
+    spread = np.std([itf_rebound(1.0, 0.001, 0.55, 0.002, de, 0.0, dk, G)["value"] for de, dk in draws], ddof=1)
+    assert rebound["se"] == pytest.approx(spread, rel=0.06)  # 2000 draws: the spread is known to ~3 %
+    assert rebound["se"] > 1.1 * without["se"]
+
+
+def test_weighted_fit_covariance_matches_the_spread_of_correlated_data():
+    """One estimator for every e law: inverse-variance weights, covariance through the full matrix."""
+    from dropfit.restitution import weighted_fit
+
+    speeds = np.array([6.0, 4.5, 3.4, 2.6, 2.0])  # m/s
+    sigma = np.array([0.001, 0.0015, 0.002, 0.003, 0.004])
+    correlation = np.eye(5) - 0.4 * (np.eye(5, k=1) + np.eye(5, k=-1))
+    covariance = np.outer(sigma, sigma) * correlation
+    design = np.column_stack([np.ones(5), -speeds])
+    truth = design @ np.array([0.9, 0.03])
+    draws = np.random.default_rng(9).multivariate_normal(truth, covariance, 3000)
+    thetas = np.array([weighted_fit(design, d, covariance)["theta"] for d in draws])
+    reported = np.sqrt(np.diag(weighted_fit(design, truth, covariance)["covariance"]))
+    assert reported == pytest.approx(thetas.std(axis=0, ddof=1), rel=0.05)  # 3000 draws: spread known to ~1.3 %
+    assert thetas.mean(axis=0) == pytest.approx([0.9, 0.03], abs=3 * reported.max() / np.sqrt(3000))

@@ -1,4 +1,4 @@
-"""Speed dependence of e: GLS fits of constant, linear and power laws, checked on seeded synthetic
+"""Speed dependence of e: weighted fits of constant, linear and power laws, checked on seeded synthetic
 bounce sequences with known noise covariance."""
 
 import json
@@ -15,6 +15,7 @@ E_SE = 0.002  # per-impact standard error of e (dimensionless)
 N_TRIALS = 200
 SE_RATIO_MIN, SE_RATIO_MAX = 0.8, 1.25  # reported / observed spread (dimensionless)
 COVERAGE_MIN, COVERAGE_MAX = 0.90, 0.98  # of nominal 95 % intervals, 200 trials (binomial sd 1.5 %)
+CHOICE_MIN = 0.95  # fraction of seeded cases in which the model choice must be right (issue 5)
 
 LINEAR = {"kind": "linear", "e0": 0.85, "slope_s_m": 0.03}
 CONSTANT = {"kind": "constant", "e0": 0.80}
@@ -55,7 +56,7 @@ def test_linear_law_recovered_and_chosen(linear_trials):
     assert np.mean(np.abs(pulls) < 3) > 0.98
     assert all(s["unit"] == "s/m" for s in slopes)
     chosen_linear = np.mean([t["chosen"] == "linear" for t in linear_trials])
-    assert chosen_linear >= 0.95
+    assert chosen_linear >= CHOICE_MIN
 
 
 def test_reported_slope_se_matches_spread(linear_trials):
@@ -74,16 +75,16 @@ def test_e0_interval_coverage(linear_trials):
 def test_constant_law_chooses_constant(name):
     results = trials(CONSTANT, COVARIANCES[name], seed=23)
     ok = [t["chosen"] == "constant" for t in results]  # includes "indistinguishable, constant chosen"
-    assert np.mean(ok) >= 0.90
+    assert np.mean(ok) >= CHOICE_MIN
     covered = [t["models"]["constant"]["parameters"]["e0"]["ci95"][0] <= CONSTANT["e0"]
                <= t["models"]["constant"]["parameters"]["e0"]["ci95"][1] for t in results]
     assert COVERAGE_MIN <= np.mean(covered) <= COVERAGE_MAX
 
 
-def test_tiny_slope_is_constant_or_indistinguishable():
+def test_tiny_slope_keeps_the_constant():
+    """An effect far below the noise: the simpler model is chosen in at least 95 % of the cases."""
     results = trials(TINY, COVARIANCES["correlated"], seed=5)
-    ok = [t["chosen"] == "constant" or t["indistinguishable"] for t in results]
-    assert np.mean(ok) >= 0.90
+    assert np.mean([t["chosen"] == "constant" for t in results]) >= CHOICE_MIN
 
 
 def test_power_law_chooses_power():
@@ -94,7 +95,7 @@ def test_power_law_chooses_power():
     assert noiseless["models"]["power"]["chi2"] == pytest.approx(0.0, abs=1e-9)
     assert noiseless["models"]["linear"]["chi2"] > 10 * DELTA_BIC_INDISTINGUISHABLE
     results = trials(POWER, covariance, seed=7)
-    assert np.mean([t["chosen"] == "power" and not t["indistinguishable"] for t in results]) >= 0.95
+    assert np.mean([t["chosen"] == "power" and not t["indistinguishable"] for t in results]) >= CHOICE_MIN
     b = [t["models"]["power"]["parameters"]["coefficient"] for t in results]
     pulls = np.array([(x["value"] - POWER["coefficient"]) / x["se"] for x in b])
     assert np.mean(np.abs(pulls) < stats.norm.ppf(0.975)) >= COVERAGE_MIN

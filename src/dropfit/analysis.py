@@ -2,8 +2,12 @@
 
 The trajectory is split into flights at the impacts; every flight is fitted with the closed-form
 vertical flight of :mod:`dropfit.physics` (known g, two parameters per flight: apex time and apex
-height), and a quadratic-drag parameter k shared by all flights is added only when the Bayesian
-information criterion says the data support it. The contact height (the centre height at which
+height), and a quadratic-drag parameter k shared by all flights is fitted only when the Bayesian
+information criterion says the data support it. Otherwise k is held: when the ball's size and mass are
+known, at that of a smooth sphere (relative se :data:`NOMINAL_DRAG_RELATIVE_SE`) combined with what
+the flights say about k; else at 0. The uncertainty of a held k is carried into every impact
+quantity as a systematic error: drag too weak to show in the flight shapes still biases e by more
+than its statistical error. The contact height (the centre height at which
 the ball touches the floor) is either given or found where the fitted flights before and after
 each impact meet. Every impact quantity is a function of the fitted parameters, so its standard
 error, and the covariance between impacts, follow by propagating the fit covariance through that
@@ -21,6 +25,7 @@ from scipy.optimize import brentq, least_squares
 
 from .errors import InputError
 from .physics import STANDARD_GRAVITY_M_S2, flight_height, flight_velocity, speed_below_apex, time_from_apex
+from .restitution import Z95
 
 #: An impact needs both of its flights sampled at least this often to be analysed.
 MIN_SAMPLES_PER_FLIGHT = 5
@@ -32,6 +37,9 @@ MISFIT_P_VALUE = 1e-4
 _NOISE_FLOOR_FRACTION = 1e-6
 #: Number of passes of "assign samples to flights, fit, locate the contacts".
 _REFINEMENT_PASSES = 3
+#: Relative standard error of a nominal drag parameter (smooth-sphere C_d = 0.5 against the
+#: 0.4–0.6 of real balls at drop-test Reynolds numbers), carried as a systematic error.
+NOMINAL_DRAG_RELATIVE_SE = 0.25
 
 
 @dataclass
@@ -46,6 +54,11 @@ class BounceAnalysis:
         One row per impact (impact n ends flight n−1 and starts flight n).
     e_covariance : numpy.ndarray
         Covariance of the per-impact e (dimensionless²), impacts in table order.
+    e_contact_covariance : numpy.ndarray
+        Covariance of (e_1 … e_n, contact time_1 … contact time_n in s), shape (2n, 2n): e and contact
+        time share the flights they are computed from.
+    e_drag_covariance : numpy.ndarray
+        Covariance of each impact's e with the drag parameter k (1/m), shape (n,); zero without drag.
     summary : dict
         Contact height, drag model and its evidence, noise, release and rest times (SI units).
     """
@@ -53,6 +66,8 @@ class BounceAnalysis:
     flights: pd.DataFrame
     impacts: pd.DataFrame
     e_covariance: np.ndarray
+    e_contact_covariance: np.ndarray
+    e_drag_covariance: np.ndarray
     summary: dict = field(default_factory=dict)
 
 
@@ -139,19 +154,21 @@ def _last_flight_end(y, after, noise):
 
 
 class _FlightModel:
-    """Joint least-squares model of all flights: θ = (y_apex_0, t_apex_0, …, [k])."""
+    """Joint least-squares model of all flights: θ = (y_apex_0, t_apex_0, …, [k]); without a fitted k,
+    the drag parameter is held at ``fixed_k`` (1/m)."""
 
-    def __init__(self, t, y, flight_of_sample, n_flights, with_drag, g):
+    def __init__(self, t, y, flight_of_sample, n_flights, with_drag, g, fixed_k=0.0):
         self.t, self.y = t, y
         self.flight = flight_of_sample
         self.n_flights = n_flights
         self.with_drag = with_drag
         self.g = g
+        self.fixed_k = fixed_k
 
     def unpack(self, theta):
         y_apex = theta[0: 2 * self.n_flights: 2]
         t_apex = theta[1: 2 * self.n_flights: 2]
-        k = float(theta[-1]) if self.with_drag else 0.0
+        k = float(theta[-1]) if self.with_drag else self.fixed_k
         return y_apex, t_apex, k
 
     def residuals(self, theta):
@@ -251,7 +268,8 @@ class _ImpactQuantities:
         return float(np.sum(self.weights * self.meeting_heights(theta)) / np.sum(self.weights))
 
     def __call__(self, theta):
-        """Vector: contact height, then per impact (t_td, t_lo, v_in, v_out, e, e_h, ftr), apex heights."""
+        """Vector: contact height, then per impact (t_td, t_lo, v_in, v_out, e, e_h, ftr, flight time,
+        contact time), apex heights."""
         g = self.model.g
         y_apex, t_apex, k = self.model.unpack(theta)
         contact = self.contact_height(theta)
@@ -265,12 +283,13 @@ class _ImpactQuantities:
         end_of_last = t_apex[-1] + time_from_apex(height_above[-1], k, g)
         flight_time = np.append(touchdown[1:], end_of_last) - liftoff
         time_ratio = np.concatenate([[np.nan], flight_time[1:] / flight_time[:-1]])
-        columns = [touchdown, liftoff, v_in, v_out, v_out / v_in, np.sqrt(after / before), time_ratio, flight_time]
+        columns = [touchdown, liftoff, v_in, v_out, v_out / v_in, np.sqrt(after / before), time_ratio, flight_time,
+                   liftoff - touchdown]
         return np.concatenate([[contact], np.concatenate(columns), height_above])
 
 
 _IMPACT_COLUMNS = ["t_touchdown_s", "t_liftoff_s", "v_in_m_s", "v_out_m_s", "e", "e_height", "flight_time_ratio",
-                   "flight_time_after_s"]
+                   "flight_time_after_s", "t_contact_s"]
 
 
 def _assign_samples(t, flights_bounds):
@@ -281,14 +300,15 @@ def _assign_samples(t, flights_bounds):
     return flight
 
 
-def _fit_flights(t, y, bounds, with_drag, g, theta0):
-    """Assign samples to the flights in ``bounds`` (list of (start, end) in s) and fit them jointly."""
+def _fit_flights(t, y, bounds, with_drag, g, theta0, fixed_k=0.0):
+    """Assign samples to the flights in ``bounds`` (list of (start, end) in s) and fit them jointly
+    (k fitted, or held at ``fixed_k`` in 1/m)."""
     flight = _assign_samples(t, bounds)
     counts = np.bincount(flight[flight >= 0], minlength=len(bounds))
     if np.any(counts < MIN_SAMPLES_PER_FLIGHT):
         return None
     used = flight >= 0
-    model = _FlightModel(t[used], y[used], flight[used], len(bounds), with_drag, g)
+    model = _FlightModel(t[used], y[used], flight[used], len(bounds), with_drag, g, fixed_k)
     return model, model.fit(theta0), counts
 
 
@@ -326,7 +346,8 @@ def detect_bounces(t, y, source="trajectory"):
 
 
 def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="auto", contact_height_m=None,
-                    source="trajectory", scale_rel_se=0.0, contact_height_se_m=0.0, contact_guard_s=0.0):
+                    source="trajectory", scale_rel_se=0.0, contact_height_se_m=0.0, contact_guard_s=0.0,
+                    nominal_drag_k_per_m=0.0):
     """Segment a drop-test trajectory into flights, fit them and measure every impact.
 
     Parameters
@@ -339,7 +360,8 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
     gravity_m_s2 : float
         Local gravitational acceleration in m/s².
     drag : {"auto", "off", "on"}
-        Quadratic air drag: chosen by BIC, never, or always.
+        Quadratic air drag parameter k: fitted when BIC says the data support it, never fitted, or
+        always fitted. When not fitted it is held at ``nominal_drag_k_per_m``.
     contact_height_m : float, optional
         Centre height in m at which the ball touches the floor (floor + radius), in the frame of
         ``height_m``. If omitted it is estimated where the flights before and after each impact meet,
@@ -362,6 +384,12 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
         Samples closer than this (s) to a fitted touchdown or lift-off are left out of the flights.
         0 for instantaneous samples; half the frame interval for video frames, which are exposed for
         up to a frame interval around their time and may show the ball already flattened.
+    nominal_drag_k_per_m : float
+        Prior value of the drag parameter in 1/m, e.g. that of a smooth sphere of the ball's size and
+        mass (:func:`dropfit.physics.drag_parameter`), with relative standard error
+        :data:`NOMINAL_DRAG_RELATIVE_SE`. When BIC keeps k from being fitted freely, k is held at this
+        prior combined with the free fit's k (inverse-variance weights), and its standard error is
+        propagated into every impact quantity. 0 = no drag.
 
     Returns
     -------
@@ -406,18 +434,34 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
     with_drag = drag != "off"
     theta0 = np.append(theta_no_drag, 1e-3) if with_drag else theta_no_drag
     guard_s = float(contact_guard_s)
-    fit = _refine(t, y, bounds, with_drag, g, theta0, contact_height_m, noise, guard_s)
+    held_k = float(nominal_drag_k_per_m or 0.0)
+    held_k_se = NOMINAL_DRAG_RELATIVE_SE * held_k
+    fit = _refine(t, y, bounds, with_drag, g, theta0, contact_height_m, noise, guard_s, held_k)
     if fit is None:
         raise InputError(f"{source}: the flights could not be fitted (too few samples between bounces)")
     bic = {with_drag: _bic(fit[1])}
     if drag == "auto":
         # compare the two models on the same samples: those the larger model kept
         model, result, _, _, final_bounds = fit
-        rival = _fit_flights(t, y, final_bounds, False, g, result.x[:-1])
+        rival = _fit_flights(t, y, final_bounds, False, g, result.x[:-1], held_k)
         bic[False] = _bic(rival[1])
         if bic[False] <= bic[True]:
-            fit = _refine(t, y, final_bounds, False, g, rival[1].x, contact_height_m, noise, guard_s) or fit
-    return _report(fit, bic, t_all, y_all, noise, g, float(t[release]), source, scale_rel_se, contact_height_se_m)
+            if held_k > 0:
+                held_k, held_k_se = _combine_with_prior(result, held_k, held_k_se)
+            fit = _refine(t, y, final_bounds, False, g, rival[1].x, contact_height_m, noise, guard_s, held_k) or fit
+    return _report(fit, bic, t_all, y_all, noise, g, float(t[release]), source, held_k_se, scale_rel_se,
+                   contact_height_se_m)
+
+
+def _combine_with_prior(result, prior_k, prior_se):
+    """k (1/m) and its se from the free-k fit ``result`` combined with the prior ``prior_k`` ± ``prior_se``
+    by inverse-variance weighting: flights that cannot pin k down on their own still narrow it."""
+    data_se = float(np.sqrt(max(_covariance(result)[-1, -1], 0.0)))
+    if not data_se > 0:
+        return prior_k, prior_se
+    weights = np.array([1.0 / data_se**2, 1.0 / prior_se**2])
+    value = float(weights @ [result.x[-1], prior_k] / weights.sum())
+    return value, float(1.0 / np.sqrt(weights.sum()))
 
 
 #: The flights' own curvature may differ from g by this fraction (drag changes it by a few %).
@@ -535,15 +579,22 @@ def _check_free_fall(t, y, bounds, g, source):
                          f"units of time and height in the column names (or the scale of a px log)")
 
 
-def _refine(t, y, bounds, with_drag, g, theta0, contact_height_m, noise, guard_s):
+def _refine(t, y, bounds, with_drag, g, theta0, contact_height_m, noise, guard_s, fixed_k=0.0):
     """Alternate fitting and re-assigning samples by the fitted touchdown and lift-off times.
 
     A flight keeps the samples more than ``guard_s`` (s) after the lift-off before it and before
     the touchdown after it.
     """
-    fitted = _fit_flights(t, y, bounds, with_drag, g, theta0)
+    fitted = _fit_flights(t, y, bounds, with_drag, g, theta0, fixed_k)
     if fitted is None:
         return None
+    spurious = _first_spurious_impact(*fitted[:2])
+    if spurious is not None:
+        # a noise dip split one flight in two: join them again
+        i = spurious
+        merged = bounds[:i] + [(bounds[i][0], bounds[i + 1][1])] + bounds[i + 2:]
+        theta = np.delete(fitted[1].x, [2 * i + 2, 2 * i + 3])
+        return _refine(t, y, merged, with_drag, g, theta, contact_height_m, noise, guard_s, fixed_k)
     for _ in range(_REFINEMENT_PASSES):
         model, result, counts = fitted
         quantities = _ImpactQuantities(model, contact_height_m)
@@ -554,7 +605,7 @@ def _refine(t, y, bounds, with_drag, g, theta0, contact_height_m, noise, guard_s
         last_end = t_apex[-1] + time_from_apex(y_apex[-1] - values["contact_height_m"], k, g)
         ends = np.append(values["t_touchdown_s"] - guard_s, last_end - guard_s)
         new_bounds = list(zip(starts, ends))
-        refitted = _fit_flights(t, y, new_bounds, with_drag, g, result.x)
+        refitted = _fit_flights(t, y, new_bounds, with_drag, g, result.x, fixed_k)
         if refitted is None:
             break
         fitted, bounds = refitted, new_bounds
@@ -563,10 +614,37 @@ def _refine(t, y, bounds, with_drag, g, theta0, contact_height_m, noise, guard_s
     if misfit is not None and misfit >= 2:
         # an impact too shallow to be detected hides inside this flight: stop the sequence before it
         theta = np.concatenate([result.x[: 2 * misfit], result.x[2 * model.n_flights:]])
-        return _refine(t, y, bounds[:misfit], with_drag, g, theta, contact_height_m, noise, guard_s)
+        return _refine(t, y, bounds[:misfit], with_drag, g, theta, contact_height_m, noise, guard_s, fixed_k)
     quantities = _ImpactQuantities(model, contact_height_m)
     _set_weights(quantities, result)
     return model, result, counts, quantities, bounds
+
+
+#: An impact must reverse the velocity by this many standard errors; a noise dip does not reverse it.
+VELOCITY_REVERSAL_IN_SE = 3.0
+
+
+def _first_spurious_impact(model, result):
+    """Index of the first impact across which the fitted velocity does not reverse significantly.
+
+    At a real impact the velocity jumps from falling to rising by (1 + e) v_in; where a noise dip split
+    one flight (near its apex, where the ball is slow and densely sampled), the two fitted halves
+    have the same velocity at the split.
+    """
+    last = np.array([model.t[model.flight == i].max() for i in range(model.n_flights - 1)])
+    first = np.array([model.t[model.flight == i + 1].min() for i in range(model.n_flights - 1)])
+    split = 0.5 * (last + first)
+
+    def velocity_jump(theta):
+        y_apex, t_apex, k = model.unpack(theta)
+        return (flight_velocity(split, t_apex[1:], 0.0, k, model.g)
+                - flight_velocity(split, t_apex[:-1], 0.0, k, model.g))
+
+    jump = velocity_jump(result.x)
+    jac = _numerical_jacobian(velocity_jump, result.x, model.lower_bounds(result.x.size))
+    se = np.sqrt(np.clip(np.einsum("ij,jk,ik->i", jac, _covariance(result), jac), 0.0, None))
+    spurious = np.flatnonzero(jump < VELOCITY_REVERSAL_IN_SE * se)
+    return int(spurious[0]) if spurious.size else None
 
 
 def _first_misfit_flight(model, result, noise):
@@ -618,20 +696,29 @@ def _contact_height_derivative(quantities, theta, step_m=1e-6):
     return (upper - lower) / (2 * step_m)
 
 
-def _report(fit, bic, t_all, y_all, noise, g, release_time, source, scale_rel_se, contact_height_se_m):
+def _report(fit, bic, t_all, y_all, noise, g, release_time, source, held_k_se, scale_rel_se, contact_height_se_m):
     model, result, counts, quantities, bounds = fit
     theta = result.x
     cov_theta = _covariance(result)
     vector = quantities(theta)
     jac = _numerical_jacobian(quantities, theta, model.lower_bounds(theta.size))
+    cov = jac @ cov_theta @ jac.T
+    if model.with_drag:
+        k_variance = float(cov_theta[-1, -1])
+        drag_covariance = jac @ cov_theta[:, -1]
+    else:
+        k_variance = held_k_se**2
+        sensitivity = _fixed_drag_sensitivity(model, result, quantities, jac) if model.fixed_k > 0 \
+            else np.zeros(vector.size)
+        cov += k_variance * np.outer(sensitivity, sensitivity)
+        drag_covariance = k_variance * sensitivity
     # the length scale's error moves every quantity together: a rank-one term in their covariance
     scale_part = scale_rel_se * np.nan_to_num(_scale_sensitivity(quantities, result)) if scale_rel_se \
         else np.zeros(vector.size)
-    cov = jac @ cov_theta @ jac.T + np.outer(scale_part, scale_part)
-    height_derivative = np.zeros(vector.size)
+    cov += np.outer(scale_part, scale_part)
     if quantities.given_contact_height is not None and contact_height_se_m > 0:
         height_derivative = _contact_height_derivative(quantities, theta)
-        cov = cov + np.outer(height_derivative, height_derivative) * contact_height_se_m ** 2
+        cov += np.outer(height_derivative, height_derivative) * contact_height_se_m ** 2
     se = np.sqrt(np.clip(np.diag(cov), 0.0, None))
     n = quantities.n_impacts
     values = _unpack_quantities(vector, n)
@@ -649,35 +736,23 @@ def _report(fit, bic, t_all, y_all, noise, g, release_time, source, scale_rel_se
         "t_apex_se_s": theta_se[1: 2 * model.n_flights: 2],
         "y_apex_m": y_apex,
         "y_apex_se_m": theta_se[0: 2 * model.n_flights: 2],
-        "apex_height_m": values["apex_height_m"],
-        "apex_height_se_m": errors["apex_height_m"],
         "n_samples": counts,
         "residual_rms_m": residual_rms,
     })
+    _add_with_interval(flights, "apex_height_m", values["apex_height_m"], errors["apex_height_m"])
     e_index = 1 + _IMPACT_COLUMNS.index("e") * n
     impacts = pd.DataFrame({"impact": np.arange(1, n + 1)})
-    for name in _IMPACT_COLUMNS:
-        impacts[name] = values[name]
-        impacts[_se_name(name)] = errors[name]
-    impacts["h_before_m"] = values["apex_height_m"][:-1]
-    impacts["h_before_se_m"] = errors["apex_height_m"][:-1]
-    impacts["h_after_m"] = values["apex_height_m"][1:]
-    impacts["h_after_se_m"] = errors["apex_height_m"][1:]
+    for name in _IMPACT_COLUMNS[:-1]:
+        _add_with_interval(impacts, name, values[name], errors[name])
+    _add_with_interval(impacts, "h_before_m", values["apex_height_m"][:-1], errors["apex_height_m"][:-1])
+    _add_with_interval(impacts, "h_after_m", values["apex_height_m"][1:], errors["apex_height_m"][1:])
     impacts["h_before_scale_se_m"] = scale_errors["apex_height_m"][:-1]
     impacts["h_after_scale_se_m"] = scale_errors["apex_height_m"][1:]
-    contact_ms = 1e3 * (values["t_liftoff_s"] - values["t_touchdown_s"])
-    td = 1 + _IMPACT_COLUMNS.index("t_touchdown_s") * n
-    lo = 1 + _IMPACT_COLUMNS.index("t_liftoff_s") * n
-    contact_jac = jac[lo: lo + n] - jac[td: td + n]
-    contact_height_slope = height_derivative[lo: lo + n] - height_derivative[td: td + n]
-    contact_variance = (np.einsum("ij,jk,ik->i", contact_jac, cov_theta, contact_jac)
-                        + (contact_height_slope * contact_height_se_m) ** 2)
-    contact_se_ms = 1e3 * np.sqrt(np.clip(contact_variance, 0, None))
+    contact_ms, contact_se_ms = 1e3 * values["t_contact_s"], 1e3 * errors["t_contact_s"]
     if quantities.given_contact_height is not None and np.any(contact_ms < -3 * contact_se_ms - 1e-6):
         raise InputError(f"{source}: the flights meet above the given contact height (floor + radius): "
                          f"the floor is lower than that; check floor_m and the ball radius")
-    impacts["t_contact_ms"] = contact_ms
-    impacts["t_contact_se_ms"] = contact_se_ms
+    _add_with_interval(impacts, "t_contact_ms", contact_ms, contact_se_ms)
     sample_interval = float(np.median(np.diff(t_all)))
     impacts["contact_resolvable"] = _contact_resolvable(contact_ms, contact_se_ms, sample_interval,
                                                         quantities.given_contact_height is not None)
@@ -690,9 +765,9 @@ def _report(fit, bic, t_all, y_all, noise, g, release_time, source, scale_rel_se
         "contact_height_se_m": errors["contact_height_m"],
         "contact_height_source": "given" if quantities.given_contact_height is not None else
         "estimated where the flights before and after each impact meet",
-        "drag_model": "quadratic" if model.with_drag else "none",
+        "drag_model": "quadratic" if model.with_drag else "nominal" if model.fixed_k > 0 else "none",
         "drag_k_per_m": k,
-        "drag_k_se_per_m": float(theta_se[-1]) if model.with_drag else 0.0,
+        "drag_k_se_per_m": float(np.sqrt(k_variance)),
         "bic_no_drag": bic.get(False, np.nan),
         "bic_quadratic_drag": bic.get(True, np.nan),
         "noise_m": float(noise),
@@ -708,8 +783,11 @@ def _report(fit, bic, t_all, y_all, noise, g, release_time, source, scale_rel_se
         "n_impacts": n,
         "scale_rel_se": float(scale_rel_se),
     }
+    contact_index = 1 + _IMPACT_COLUMNS.index("t_contact_s") * n
+    pair = np.r_[e_index: e_index + n, contact_index: contact_index + n]
     return BounceAnalysis(flights=flights, impacts=impacts, e_covariance=cov[e_index: e_index + n, e_index: e_index + n],
-                          summary=summary)
+                          e_contact_covariance=cov[np.ix_(pair, pair)],
+                          e_drag_covariance=drag_covariance[e_index: e_index + n], summary=summary)
 
 
 def _scale_sensitivity(quantities, result, step=1e-6):
@@ -727,12 +805,39 @@ def _scale_sensitivity(quantities, result, step=1e-6):
     return (moved(result.x + step * response) - quantities(result.x)) / step
 
 
-def _se_name(column):
-    """Standard-error column name that keeps the unit suffix last: v_in_m_s → v_in_se_m_s."""
-    for unit in ("_m_s", "_s", "_m"):
-        if column.endswith(unit) and not column.endswith("_ratio"):
-            return column[: -len(unit)] + "_se" + unit
-    return column + "_se"
+def _fixed_drag_sensitivity(model, result, quantities, jac):
+    """Total derivative of the quantities with respect to a held drag parameter k (per 1/m): the
+    direct change at fixed θ plus the change through θ, refitted by least squares to the new k."""
+    k = model.fixed_k
+    step = 1e-3 * k
+
+    def at(k_value, function):
+        model.fixed_k = k_value
+        try:
+            return function(result.x)
+        finally:
+            model.fixed_k = k
+
+    residual_slope = (at(k + step, model.residuals) - at(k - step, model.residuals)) / (2 * step)
+    direct = (at(k + step, quantities) - at(k - step, quantities)) / (2 * step)
+    return direct - jac @ (np.linalg.pinv(result.jac) @ residual_slope)
+
+
+def _add_with_interval(table, column, value, se):
+    """Add a column, its standard error and its normal 95 % interval (``_ci95_low``/``_ci95_high``)."""
+    table[column] = value
+    table[_se_name(column)] = se
+    table[_se_name(column, "ci95_low")] = value - Z95 * se
+    table[_se_name(column, "ci95_high")] = value + Z95 * se
+
+
+def _se_name(column, tag="se"):
+    """Name of a column's standard error (or other ``tag``) that keeps the unit suffix last:
+    v_in_m_s → v_in_se_m_s, t_contact_ms → t_contact_se_ms."""
+    for unit in ("_m_s", "_ms", "_s", "_m"):
+        if column.endswith(unit):
+            return column[: -len(unit)] + f"_{tag}" + unit
+    return column + f"_{tag}"
 
 
 def _contact_resolvable(contact_ms, contact_se_ms, sample_interval_s, contact_height_given):

@@ -63,7 +63,8 @@ def _parser():
     analyse.add_argument("--flights", required=True)
     analyse.add_argument("--summary", required=True)
     analyse.add_argument("--drag", choices=["auto", "off", "on"], default="auto",
-                         help="quadratic air drag: chosen by BIC (auto), never or always")
+                         help="quadratic air drag k: fitted when BIC prefers it (auto), never or always; when not "
+                              "fitted, held at a smooth sphere's k if the ball's radius and mass are known")
     analyse.add_argument("--gravity-m-s2", type=_positive, default=STANDARD_GRAVITY_M_S2, help="gravity in m/s²")
 
     fit = stage("fit", "impacts → fit result (JSON): e, theory checks, ITF verdict")

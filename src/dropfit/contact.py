@@ -20,6 +20,7 @@ from scipy.integrate import solve_ivp
 from scipy.optimize import brentq, least_squares
 
 from .physics import STANDARD_GRAVITY_M_S2
+from .restitution import weighted_fit
 
 #: Relative tolerance of the nonlinear integrator (e comes out to better than 1e-10).
 ODE_RTOL = 1e-12
@@ -406,20 +407,23 @@ def hunt_crossley_from_measurements(mass_kg, impact_speed_m_s, e, contact_time_s
     return tuple(float(x) for x in np.exp(solution.x))
 
 
-def fit_linear_contact(mass_kg, impact_speed_m_s, e, e_se, contact_time_s, contact_time_se_s,
-                       gravity_m_s2=STANDARD_GRAVITY_M_S2):
+def fit_linear_contact(mass_kg, impact_speed_m_s, e, contact_time_s, covariance, gravity_m_s2=STANDARD_GRAVITY_M_S2):
     """k and c of the linear contact from measured impacts, with standard errors.
 
-    Each impact's (e, contact time) is inverted exactly (:func:`linear_from_measurements`); its
-    standard errors are propagated by the Jacobian of that inversion, treating the errors of e and
-    of the contact time as independent. The impacts are combined by inverse-variance weighting.
+    Each impact's (e, contact time) is inverted exactly (:func:`linear_from_measurements`). The full
+    covariance of all e and contact times (they share the flights they are computed from) is
+    propagated through the Jacobians of those inversions, and the impacts are combined by
+    :func:`dropfit.restitution.weighted_fit` (inverse-variance weights, full-covariance se).
 
     Parameters
     ----------
     mass_kg : float
         Ball mass in kg.
-    impact_speed_m_s, e, e_se, contact_time_s, contact_time_se_s : array_like
-        Per impact: touchdown speed (m/s), e and its se (dimensionless), contact time and its se (s).
+    impact_speed_m_s, e, contact_time_s : array_like
+        Per impact (n of them): touchdown speed (m/s), e (dimensionless), contact time (s).
+    covariance : array_like
+        Covariance of (e_1 … e_n, contact time_1 … contact time_n in s), shape (2n, 2n), as
+        :attr:`dropfit.analysis.BounceAnalysis.e_contact_covariance`.
     gravity_m_s2 : float
         Gravity in m/s².
 
@@ -429,21 +433,23 @@ def fit_linear_contact(mass_kg, impact_speed_m_s, e, e_se, contact_time_s, conta
         ``stiffness_n_m`` and ``damping_n_s_m`` as (value, se) pairs combined over the impacts, and
         ``per_impact``: a list of dicts with the same per impact.
     """
-    per_impact = []
-    for v0, ei, ei_se, tc, tc_se in zip(impact_speed_m_s, e, e_se, contact_time_s, contact_time_se_s):
-        params = np.array(linear_from_measurements(mass_kg, v0, ei, tc, gravity_m_s2))
-        jac = np.empty((2, 2))
+    e, contact_time_s = np.asarray(e, dtype=float), np.asarray(contact_time_s, dtype=float)
+    n = e.size
+    params = np.empty((n, 2))
+    # Jacobian of (k_1 … k_n, c_1 … c_n) with respect to (e_1 … e_n, contact time_1 … contact time_n)
+    jac = np.zeros((2 * n, 2 * n))
+    for i, (v0, ei, tc) in enumerate(zip(impact_speed_m_s, e, contact_time_s)):
+        params[i] = linear_from_measurements(mass_kg, v0, ei, tc, gravity_m_s2)
         for j, (step, shifted) in enumerate(((1e-6, (ei + 1e-6, tc)), (1e-6 * tc, (ei, tc * (1 + 1e-6))))):
-            jac[:, j] = (np.array(linear_from_measurements(mass_kg, v0, *shifted, gravity_m_s2)) - params) / step
-        covariance = jac @ np.diag([ei_se**2, tc_se**2]) @ jac.T
-        se = np.sqrt(np.diag(covariance))
-        per_impact.append({"impact_speed_m_s": float(v0), "stiffness_n_m": (float(params[0]), float(se[0])),
-                           "damping_n_s_m": (float(params[1]), float(se[1]))})
-    combined = {}
-    for name in ("stiffness_n_m", "damping_n_s_m"):
-        values = np.array([row[name][0] for row in per_impact])
-        errors = np.array([row[name][1] for row in per_impact])
-        weights = 1.0 / errors**2
-        combined[name] = (float(weights @ values / weights.sum()), float(1.0 / np.sqrt(weights.sum())))
-    combined["per_impact"] = per_impact
+            jac[[i, n + i], j * n + i] = (np.array(linear_from_measurements(mass_kg, v0, *shifted, gravity_m_s2))
+                                          - params[i]) / step
+    parameter_covariance = jac @ np.asarray(covariance, dtype=float) @ jac.T
+    se = np.sqrt(np.clip(np.diag(parameter_covariance), 0.0, None))
+    combined = {"per_impact": [{"impact_speed_m_s": float(v0), "stiffness_n_m": (float(params[i, 0]), float(se[i])),
+                                "damping_n_s_m": (float(params[i, 1]), float(se[n + i]))}
+                               for i, v0 in enumerate(impact_speed_m_s)]}
+    for j, name in enumerate(("stiffness_n_m", "damping_n_s_m")):
+        block = slice(j * n, (j + 1) * n)
+        fitted = weighted_fit(np.ones((n, 1)), params[:, j], parameter_covariance[block, block])
+        combined[name] = (float(fitted["theta"][0]), float(np.sqrt(fitted["covariance"][0, 0])))
     return combined

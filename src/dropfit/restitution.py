@@ -24,14 +24,64 @@ def estimate(value, se, unit):
     return {"value": value, "se": se, "ci95": [value - Z95 * se, value + Z95 * se], "unit": unit}
 
 
+def weighted_fit(design, target, covariance):
+    """Linear fit of correlated per-impact values, the one estimator behind every e law.
+
+    Parameters are estimated by least squares weighted with the inverse variances (the diagonal of
+    ``covariance``) and their covariance propagates the full covariance through that linear
+    estimator (adjacent impacts share a flight and all share the contact height, so their values are
+    correlated). Full generalised least squares would weight by the inverse of the estimated,
+    strongly correlated covariance; in seeded coverage trials its 95 % intervals covered the truth
+    only about 90 % of the time, the diagonal weights about 95 % (``benchmarks/coverage.py``). The
+    goodness of fit, for tests and model choice, is the generalised χ² at its minimum, where it
+    follows its χ² law.
+
+    Parameters
+    ----------
+    design : numpy.ndarray
+        Design matrix X, shape (n, p): ``target`` ≈ X θ.
+    target : numpy.ndarray
+        Values, shape (n,).
+    covariance : numpy.ndarray
+        Their covariance, shape (n, n).
+
+    Returns
+    -------
+    dict
+        ``theta`` (p,), ``covariance`` (p, p), ``estimator`` (p, n: θ = estimator @ target, for
+        propagating other covariances), ``chi2`` (generalised, at its minimum), ``dof`` (n − p) and
+        ``singular`` (whether the covariance needed a pseudo-inverse).
+    """
+    design = np.asarray(design, dtype=float)
+    target = np.asarray(target, dtype=float)
+    covariance = np.asarray(covariance, dtype=float)
+    weighted = design / np.diag(covariance)[:, None]
+    estimator = np.linalg.pinv(design.T @ weighted) @ weighted.T
+    theta = estimator @ target
+    precision, singular = _precision(covariance)
+    generalised = np.linalg.pinv(design.T @ precision @ design) @ design.T @ precision
+    residual = target - design @ (generalised @ target)
+    return {
+        "theta": theta,
+        "covariance": estimator @ covariance @ estimator.T,
+        "estimator": estimator,
+        "chi2": float(residual @ precision @ residual),
+        "dof": int(target.size - design.shape[1]),
+        "singular": singular,
+    }
+
+
+def _precision(covariance):
+    """Inverse of the covariance, or its pseudo-inverse when it is singular; and whether it was."""
+    if np.linalg.matrix_rank(covariance) < covariance.shape[0]:
+        return np.linalg.pinv(covariance), True
+    return np.linalg.inv(covariance), False
+
+
 def constant_restitution(e, covariance):
     """Constant-e estimate from correlated per-impact values, with its standard error.
 
-    The estimate is the mean of the per-impact e weighted by their inverse variances; its standard
-    error propagates the full covariance (adjacent impacts share a flight and all share the contact
-    height, so their e are correlated). Full generalised least squares would weight by the inverse
-    of that estimated, strongly correlated covariance; in seeded coverage trials its 95 % intervals
-    covered the truth only about 90 % of the time, the diagonal weights about 95 %.
+    The estimate and its standard error come from :func:`weighted_fit` with one parameter.
 
     Parameters
     ----------
@@ -43,59 +93,21 @@ def constant_restitution(e, covariance):
     Returns
     -------
     dict
-        ``e`` (estimate dict), ``chi2`` and ``dof`` of the constant model under the full covariance
-        (at its generalised-least-squares minimum), its ``p_value`` (a small one says e is not the same at every impact), and ``n_impacts``.
+        ``e`` (estimate dict), ``weights`` (list: e = weights · per-impact e), ``chi2`` and ``dof`` of
+        the constant model under the full covariance (at its generalised-least-squares minimum), its
+        ``p_value`` (a small one says e is not the same at every impact), and ``n_impacts``.
     """
     e = np.asarray(e, dtype=float)
-    covariance = np.asarray(covariance, dtype=float)
-    weights = 1.0 / np.diag(covariance)
-    weights /= weights.sum()
-    value = weights @ e
-    se = np.sqrt(weights @ covariance @ weights)
-    # the test of constancy uses the generalised-least-squares minimum, where χ² follows its law
-    precision = np.linalg.pinv(covariance)
-    ones = np.ones(e.size)
-    residual = e - (ones @ precision @ e) / (ones @ precision @ ones)
-    chi2 = float(residual @ precision @ residual)
-    dof = e.size - 1
+    fitted = weighted_fit(np.ones((e.size, 1)), e, covariance)
+    dof = fitted["dof"]
     return {
-        "e": estimate(value, se, "1"),
-        "chi2": chi2,
+        "e": estimate(fitted["theta"][0], np.sqrt(fitted["covariance"][0, 0]), "1"),
+        "weights": fitted["estimator"][0].tolist(),
+        "chi2": fitted["chi2"],
         "dof": dof,
-        "p_value": float(stats.chi2.sf(chi2, dof)) if dof > 0 else float("nan"),
+        "p_value": float(stats.chi2.sf(fitted["chi2"], dof)) if dof > 0 else float("nan"),
         "n_impacts": int(e.size),
     }
-
-
-def drag_shift(h_before_m, h_after_m, e_variance, k_per_m, gravity_m_s2):
-    """Change of the constant e if flights fitted without drag had drag ``k_per_m`` (1/m).
-
-    Drag slows the fall and the rise, so speeds taken from apex heights without drag make e too
-    low by about k (h_before + h_after)/2. When the flight shapes are too noisy to show drag, this
-    shift, with k of a smooth sphere of the ball's size and mass, tells whether that matters.
-
-    Parameters
-    ----------
-    h_before_m, h_after_m : numpy.ndarray
-        Apex heights in m above the contact height before and after each impact.
-    e_variance : numpy.ndarray
-        Variance of each impact's e, for the same weights as :func:`constant_restitution`.
-    k_per_m : float
-        Drag parameter in 1/m.
-    gravity_m_s2 : float
-        Gravity in m/s².
-
-    Returns
-    -------
-    float
-        e with drag minus e without (dimensionless).
-    """
-    without = speed_below_apex(h_after_m, 0.0, gravity_m_s2, rising=True) / speed_below_apex(h_before_m, 0.0,
-                                                                                              gravity_m_s2)
-    with_drag = speed_below_apex(h_after_m, k_per_m, gravity_m_s2, rising=True) / speed_below_apex(
-        h_before_m, k_per_m, gravity_m_s2)
-    weights = 1.0 / np.asarray(e_variance, dtype=float)
-    return float(weights @ (with_drag - without) / weights.sum())
 
 
 def theory_checks(e, e_se, drop_height_m, fall_time_s, measured_heights_m, measured_heights_se_m,
@@ -145,13 +157,14 @@ def theory_checks(e, e_se, drop_height_m, fall_time_s, measured_heights_m, measu
 
 def itf_rebound(drop_height_m, drop_height_se_m, first_rebound_m, first_rebound_se_m, e, e_se, drag_k_per_m,
                 gravity_m_s2, drop_height_tolerance_m=0.02, itf_drop_height_m=ITF_DROP_HEIGHT_M,
-                e_source="the fitted constant e"):
+                e_source="the fitted constant e", drag_k_se_per_m=0.0, e_drag_covariance=0.0):
     """Rebound height in m of a drop from the ITF height, measured or predicted.
 
     From a drop within ``drop_height_tolerance_m`` of the ITF height, the measured first rebound is
     used, scaled by the ratio of the drop heights. From any other height it is predicted with the
     given e (described by ``e_source``) and drag: v_in at the end of the ITF fall, v_out = e v_in, rise
-    of v_out.
+    of v_out. Its standard error propagates those of e and of the drag parameter k (1/m) and their
+    covariance ``e_drag_covariance`` (1/m).
 
     Returns
     -------
@@ -166,10 +179,15 @@ def itf_rebound(drop_height_m, drop_height_se_m, first_rebound_m, first_rebound_
         result["method"] = f"measured first rebound from a {100 * drop_height_m:.1f} cm drop, scaled to " \
                            f"{100 * itf_drop_height_m:.0f} cm"
         return result
-    v_in = float(speed_below_apex(itf_drop_height_m, drag_k_per_m, gravity_m_s2))
-    value = float(apex_rise(e * v_in, drag_k_per_m, gravity_m_s2))
-    slope = (float(apex_rise((e + 1e-6) * v_in, drag_k_per_m, gravity_m_s2)) - value) / 1e-6
-    result = estimate(value, abs(slope) * e_se, "m")
+    def rebound(e_value, k):
+        return float(apex_rise(e_value * speed_below_apex(itf_drop_height_m, k, gravity_m_s2), k, gravity_m_s2))
+
+    value = rebound(e, drag_k_per_m)
+    k_step = 1e-6 + 1e-4 * drag_k_per_m
+    gradient = np.array([(rebound(e + 1e-6, drag_k_per_m) - value) / 1e-6,
+                         (rebound(e, drag_k_per_m + k_step) - value) / k_step])
+    covariance = np.array([[e_se**2, e_drag_covariance], [e_drag_covariance, drag_k_se_per_m**2]])
+    result = estimate(value, np.sqrt(max(gradient @ covariance @ gradient, 0.0)), "m")
     result["method"] = f"predicted for a {100 * itf_drop_height_m:.0f} cm drop (measured drop " \
                        f"{100 * drop_height_m:.1f} cm) with e = {e:.4f} from {e_source} and drag k = " \
                        f"{drag_k_per_m:.4g} 1/m"

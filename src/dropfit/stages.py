@@ -13,15 +13,15 @@ import numpy as np
 import yaml
 
 from . import __version__, video_limits
-from .analysis import analyse_bounces
+from .analysis import NOMINAL_DRAG_RELATIVE_SE, analyse_bounces
 from .contact import fit_linear_contact
 from .errors import InputError
 from .files import atomic_output, read_json, read_table, sha256_of, write_json, write_text
 from .heightlog import read_trajectory, trajectory_from_log
 from .physics import SPHERE_DRAG_COEFFICIENT, STANDARD_GRAVITY_M_S2, drag_parameter, speed_below_apex
-from .restitution import (ITF_DROP_HEIGHT_M, ITF_REBOUND_MAX_M, ITF_REBOUND_MIN_M, constant_restitution,
-                          drag_shift, estimate, itf_rebound, itf_verdict, theory_checks)
-from .speed_dependence import fit_speed_dependence, predict_e
+from .restitution import (ITF_DROP_HEIGHT_M, ITF_REBOUND_MAX_M, ITF_REBOUND_MIN_M, constant_restitution, estimate,
+                          itf_rebound, itf_verdict, theory_checks)
+from .speed_dependence import fit_speed_dependence, predict_e, prediction_covariance
 from .synth import scenario_recordings, synthesize
 from .videolog import is_video, trajectory_from_video
 
@@ -92,17 +92,30 @@ def analyse(trajectory_path, impacts_path, flights_path, summary_path, drag="aut
                              drag=drag, contact_height_m=contact_height,
                              source=attrs.get("source", str(trajectory_path)),
                              scale_rel_se=float(attrs.get("scale_rel_se", 0.0)),
-                             contact_height_se_m=float(attrs.get("floor_se_m", 0.0)), contact_guard_s=guard)
+                             contact_height_se_m=float(attrs.get("floor_se_m", 0.0)), contact_guard_s=guard,
+                             nominal_drag_k_per_m=nominal_drag(attrs.get("ball_radius_m"), attrs.get("ball_mass_kg")))
     if "video" in attrs:  # a video's later bounces may be too briefly filmed to resolve
         result = video_limits.select_resolved_impacts(result, attrs["video"])
-    summary = dict(result.summary)
-    summary["e_covariance"] = result.e_covariance.tolist()
-    summary["trajectory_attrs"] = {key: _plain(value) for key, value in trajectory.attrs.items()}
     with atomic_output(impacts_path) as tmp:
         result.impacts.to_csv(tmp, index=False, float_format="%.9g")
     with atomic_output(flights_path) as tmp:
         result.flights.to_csv(tmp, index=False, float_format="%.9g")
-    write_json(summary_path, {key: _plain(value) for key, value in summary.items()})
+    write_json(summary_path, analysis_summary(result, attrs))
+
+
+def nominal_drag(radius_m, mass_kg):
+    """Drag parameter in 1/m of a smooth sphere of the ball's size and mass (0 when either is unknown)."""
+    return float(drag_parameter(SPHERE_DRAG_COEFFICIENT, radius_m, mass_kg)) if radius_m and mass_kg else 0.0
+
+
+def analysis_summary(result, trajectory_attrs):
+    """JSON-ready analysis summary: the analysis summary, the covariances and the trajectory's attributes."""
+    summary = dict(result.summary)
+    summary["e_covariance"] = result.e_covariance.tolist()
+    summary["e_contact_covariance"] = result.e_contact_covariance.tolist()
+    summary["e_drag_covariance"] = result.e_drag_covariance.tolist()
+    summary["trajectory_attrs"] = {key: _plain(value) for key, value in trajectory_attrs.items()}
+    return {key: _plain(value) for key, value in summary.items()}
 
 
 def _plain(value):
@@ -117,7 +130,15 @@ def fit(analysis_path, impacts_path, out_path, ball_type=None, itf_drop_height_m
     """Impacts → fit result JSON: e with uncertainty, theory checks, ITF verdict, provenance."""
     # JSON has no NaN: the analysis wrote missing numbers (no rest seen, BIC of a model not tried) as null
     summary = {key: float("nan") if value is None else value for key, value in read_json(analysis_path).items()}
-    impacts = read_table(impacts_path)
+    write_json(out_path, fit_result(summary, read_table(impacts_path), ball_type, itf_drop_height_m, itf_rebound_min_m,
+                                    itf_rebound_max_m, itf_drop_height_tolerance_m))
+
+
+def fit_result(summary, impacts, ball_type=None, itf_drop_height_m=ITF_DROP_HEIGHT_M,
+               itf_rebound_min_m=ITF_REBOUND_MIN_M, itf_rebound_max_m=ITF_REBOUND_MAX_M,
+               itf_drop_height_tolerance_m=0.02):
+    """The fit result (JSON-ready dict) from an analysis summary (:func:`analysis_summary`) and its
+    impacts table; the options as for :func:`fit`."""
     attrs = summary.get("trajectory_attrs", {})
     ball_type = ball_type or attrs.get("ball_type")
     mass = attrs.get("ball_mass_kg")
@@ -133,9 +154,7 @@ def fit(analysis_path, impacts_path, out_path, ball_type=None, itf_drop_height_m
                            impacts["h_after_se_m"].to_numpy(), summary["rest_time_s"] - summary["drop_apex_time_s"])
     speed_law = fit_speed_dependence(impacts["v_in_m_s"].to_numpy(), impacts["e"].to_numpy(),
                                      np.asarray(summary["e_covariance"])) if len(impacts) >= 3 else None
-    radius = attrs.get("ball_radius_m")
-    nominal_k = float(drag_parameter(SPHERE_DRAG_COEFFICIENT, radius, mass)) if radius and mass else None
-    itf = _itf(ball_type, summary, impacts, e, e_se, speed_law, nominal_k, itf_drop_height_m, itf_rebound_min_m,
+    itf = _itf(ball_type, summary, impacts, constant, speed_law, itf_drop_height_m, itf_rebound_min_m,
                itf_rebound_max_m, itf_drop_height_tolerance_m)
     resolvable_rows = impacts[impacts["contact_resolvable"].astype(bool)]
     drag = {
@@ -147,14 +166,11 @@ def fit(analysis_path, impacts_path, out_path, ball_type=None, itf_drop_height_m
         if np.isfinite(summary["bic_quadratic_drag"]) and np.isfinite(summary["bic_no_drag"])
         else "fixed by the --drag option",
     }
-    if summary["drag_model"] == "none" and nominal_k:
-        drag["nominal_k_per_m"] = nominal_k
-        drag["e_shift_with_nominal_drag"] = drag_shift(
-            impacts["h_before_m"].to_numpy(), impacts["h_after_m"].to_numpy(), np.diag(summary["e_covariance"]),
-            nominal_k, summary["gravity_m_s2"])
-        drag["note"] = (f"drag is too weak to show in the flight shapes, but a smooth sphere of this size and mass "
-                        f"(C_d = {SPHERE_DRAG_COEFFICIENT}) would raise e by {drag['e_shift_with_nominal_drag']:.2g}; "
-                        f"compare with the standard error of e")
+    if summary["drag_model"] == "nominal":
+        drag["note"] = (f"k is not fitted freely: held at that of a smooth sphere of this size and mass (C_d = "
+                        f"{SPHERE_DRAG_COEFFICIENT}, {100 * NOMINAL_DRAG_RELATIVE_SE:.0f} % standard error) combined "
+                        f"with what the flights say about k; its standard error is carried into every e, height and "
+                        f"contact time as a systematic error")
     result = {
         "status": "ok",
         "sample_id": attrs.get("sample_id"),
@@ -171,7 +187,8 @@ def fit(analysis_path, impacts_path, out_path, ball_type=None, itf_drop_height_m
         "drop_height_m": estimate(summary["drop_height_m"], summary["drop_height_se_m"], "m"),
         "contact_height_m": estimate(summary["contact_height_m"], summary["contact_height_se_m"], "m"),
         "contact_time": _contact_time(summary, resolvable_rows),
-        "contact_model": _contact_model(resolvable_rows, mass, summary["gravity_m_s2"]),
+        "contact_model": _contact_model(resolvable_rows, mass, summary["gravity_m_s2"],
+                                        np.asarray(summary["e_contact_covariance"])),
         "noise_m": summary["noise_m"],
         "theory": theory,
         "itf": itf,
@@ -179,7 +196,7 @@ def fit(analysis_path, impacts_path, out_path, ball_type=None, itf_drop_height_m
                    "itf_rebound_max_m": itf_rebound_max_m, "itf_drop_height_tolerance_m": itf_drop_height_tolerance_m,
                    "gravity_m_s2": summary["gravity_m_s2"]},
     }
-    write_json(out_path, result)
+    return result
 
 
 def _scale_record(attrs):
@@ -214,16 +231,20 @@ def _contact_time(summary, resolvable_rows):
     return {"resolvable": False, "why": why}
 
 
-def _contact_model(resolvable_rows, mass_kg, gravity_m_s2):
-    """Linear contact k, c from the impacts whose contact time is resolved (None if there are none)."""
+def _contact_model(resolvable_rows, mass_kg, gravity_m_s2, e_contact_covariance):
+    """Linear contact k, c from the impacts whose contact time is resolved (None if there are none);
+    ``e_contact_covariance`` is that of all impacts' e and contact times (s)."""
     if resolvable_rows.empty or not mass_kg:
         return None
     physical = resolvable_rows[(resolvable_rows["e"] > 0) & (resolvable_rows["e"] < 1)]
     if physical.empty:
         return None
     resolvable_rows = physical
-    fitted = fit_linear_contact(mass_kg, resolvable_rows["v_in_m_s"], resolvable_rows["e"], resolvable_rows["e_se"],
-                                1e-3 * resolvable_rows["t_contact_ms"], 1e-3 * resolvable_rows["t_contact_se_ms"],
+    n = e_contact_covariance.shape[0] // 2
+    rows = resolvable_rows["impact"].to_numpy() - 1
+    rows = np.concatenate([rows, n + rows])
+    fitted = fit_linear_contact(mass_kg, resolvable_rows["v_in_m_s"], resolvable_rows["e"],
+                                1e-3 * resolvable_rows["t_contact_ms"], e_contact_covariance[np.ix_(rows, rows)],
                                 gravity_m_s2)
     return {
         "model": "linear (unilateral Kelvin-Voigt): F = max(0, k delta + c delta_dot)",
@@ -233,25 +254,29 @@ def _contact_model(resolvable_rows, mass_kg, gravity_m_s2):
         "gravity_m_s2": gravity_m_s2,
         "impact_speed_m_s": float(resolvable_rows["v_in_m_s"].iloc[0]),
         "n_impacts": len(resolvable_rows),
-        "why": "each impact's e and contact time inverted exactly, weighted by inverse variance; errors of e and "
-               "contact time treated as independent",
+        "why": "each impact's e and contact time inverted exactly, weighted by inverse variance; the standard "
+               "errors propagate the full covariance of all e and contact times (they share flights)",
     }
 
 
-def _itf(ball_type, summary, impacts, e, e_se, speed_law, nominal_k, drop_height_itf, rebound_min, rebound_max,
-         tolerance):
+def _itf(ball_type, summary, impacts, constant, speed_law, drop_height_itf, rebound_min, rebound_max, tolerance):
     limits = {"drop_height_m": drop_height_itf, "rebound_min_m": rebound_min, "rebound_max_m": rebound_max,
               "source": "ITF Rules of Tennis, Appendix I"}
     if ball_type != "tennis":
         return {"verdict": "not applicable", "why": f"the ITF rebound window is for tennis balls, this is {ball_type}",
                 "limits": limits}
-    # a prediction from another drop height is for a ball in air: with the fitted drag, or with that of a
-    # smooth sphere of the ball's size where the data could not show drag; and with e at the ITF impact speed
-    drag_k = summary["drag_k_per_m"] if summary["drag_model"] == "quadratic" else (nominal_k or 0.0)
+    # a prediction from another drop height is for a ball in air, with the analysis' drag (fitted, or that of
+    # a smooth sphere of the ball's size where the data could not show drag), and e at the ITF impact speed
+    drag_k, drag_k_se = summary["drag_k_per_m"], summary["drag_k_se_per_m"]
+    e_drag = np.asarray(summary["e_drag_covariance"])
+    e, e_se = constant["e"]["value"], constant["e"]["se"]
+    e_drag_covariance = float(np.asarray(constant["weights"]) @ e_drag)
     e_source = "the fitted constant e"
     if speed_law and speed_law["chosen"] != "constant":
+        law = speed_law["models"][speed_law["chosen"]]
         itf_speed = float(speed_below_apex(drop_height_itf, drag_k, summary["gravity_m_s2"]))
-        e, e_se = (float(x) for x in predict_e(speed_law["models"][speed_law["chosen"]], itf_speed))
+        e, e_se = (float(x) for x in predict_e(law, itf_speed))
+        e_drag_covariance = float(prediction_covariance(law, itf_speed, e_drag))
         e_source = f"the {speed_law['chosen']} e(v) law at the ITF impact speed {itf_speed:.2f} m/s"
     # the length scale's share of the heights' errors is common to both: the measured rebound scaled by
     # 254 cm / H, a ratio of two heights, keeps only the difference of their relative shares
@@ -261,7 +286,7 @@ def _itf(ball_type, summary, impacts, e, e_se, speed_law, nominal_k, drop_height
     drop_fit_se = np.sqrt(max(summary["drop_height_se_m"] ** 2 - drop_scale_se**2, 0.0))
     first_fit_se = np.sqrt(max(first["h_after_se_m"] ** 2 - first_scale_se**2, 0.0))
     rebound = itf_rebound(drop, drop_fit_se, first["h_after_m"], first_fit_se, e, e_se, drag_k,
-                          summary["gravity_m_s2"], tolerance, drop_height_itf, e_source)
+                          summary["gravity_m_s2"], tolerance, drop_height_itf, e_source, drag_k_se, e_drag_covariance)
     if rebound["method"].startswith("measured"):
         ratio_scale_se = rebound["value"] * (first_scale_se / first["h_after_m"] - drop_scale_se / drop)
         rebound.update(estimate(rebound["value"], float(np.hypot(rebound["se"], ratio_scale_se)), "m"))

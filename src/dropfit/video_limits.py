@@ -135,7 +135,7 @@ def select_resolved_impacts(analysis, source):
     Returns
     -------
     dropfit.analysis.BounceAnalysis
-        The same analysis with the impacts (and their flights, e covariance and ``n_impacts``) from
+        The same analysis with the impacts (and their flights, covariances and ``n_impacts``) from
         the first unresolved impact on removed; ``summary["impacts_dropped"]`` gives the reason
         (empty when all impacts are kept).
 
@@ -148,9 +148,13 @@ def select_resolved_impacts(analysis, source):
     kept = next((i for i, reason in enumerate(reasons) if reason is not None), len(reasons))
     if kept == 0:
         raise InputError(f"{source}: not analysable: {reasons[0]}")
+    n = len(reasons)
+    pair = np.r_[0:kept, n: n + kept]  # e_1…e_kept and their contact times
     summary = dict(analysis.summary, n_impacts=kept,
                    impacts_dropped=[] if kept == len(reasons) else
                    [f"{reasons[kept]}; this and the {len(reasons) - kept - 1} later impacts dropped"])
     return dataclasses.replace(analysis, impacts=analysis.impacts.iloc[:kept].reset_index(drop=True),
                                flights=analysis.flights.iloc[: kept + 1].reset_index(drop=True),
-                               e_covariance=analysis.e_covariance[:kept, :kept], summary=summary)
+                               e_covariance=analysis.e_covariance[:kept, :kept],
+                               e_contact_covariance=analysis.e_contact_covariance[np.ix_(pair, pair)],
+                               e_drag_covariance=analysis.e_drag_covariance[:kept], summary=summary)
