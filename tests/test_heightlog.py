@@ -247,3 +247,18 @@ def test_px_log_with_a_scale_of_the_wrong_sign_is_named(tennis_truth, tmp_path):
     with pytest.raises(InputError) as caught:
         trajectory_from_log(path, scale_m_per_px=1.0 / PX_PER_M)
     assert_one_line_about(str(caught.value), path, ["points down", "negative scale"])
+
+
+def test_shared_acceleration_of_flights_curving_upwards_is_reported_not_refined():
+    """A few ms of motion whose tracked curvature comes out upward (as in a 30 ms close-up) is returned
+    as it is, without drag, for the caller to refuse; it must not reach the drag fit as a start
+    outside its bounds (that raised a ValueError)."""
+    from dropfit.analysis import shared_acceleration_with_drag
+
+    rng = np.random.default_rng(5)
+    time = np.arange(0.0, 0.012, 0.0005)  # s
+    pieces = [(time, 4.0 * (time - 0.006) ** 2 + rng.normal(0.0, 1e-6, time.size)),  # m, curving up
+              (time + 0.02, 4.0 * (time - 0.006) ** 2 + rng.normal(0.0, 1e-6, time.size))]
+    fit = shared_acceleration_with_drag(pieces)
+    assert fit.acceleration == pytest.approx(-8.0, rel=0.01)  # m/s², i.e. upwards
+    assert fit.drag_model == "none"

@@ -538,7 +538,9 @@ def shared_acceleration_with_drag(pieces):
     -------
     SharedAcceleration
     """
-    start, _ = shared_acceleration(pieces)
+    start, start_se = shared_acceleration(pieces)
+    if not start > 0:  # the flights curve upwards (e.g. a few ms of a close-up): no fall to refine
+        return SharedAcceleration(start, start_se, 0.0, 0.0, "none")
     theta0 = []
     for time, height in pieces:
         theta0.extend(_parabola_start(time, height, start))
