@@ -145,7 +145,7 @@ def run_clip(point, seed, directory):
     row.update(refused=refusal is not None, refusal=refusal or "", e_unguarded=False)
     if refusal is not None and "not analysable" in refusal:
         with mock.patch.object(video_limits, "check_recording", lambda table, source: None), \
-                mock.patch.object(video_limits, "select_resolved_impacts", lambda analysis, source: analysis):
+                mock.patch.object(video_limits, "select_resolved_impacts", lambda analysis, source, frame_interval_s: analysis):
             impacts, _ = _analyse(path, radius_m, directory)
         row["e_unguarded"] = impacts is not None
     for n in IMPACTS:

@@ -17,6 +17,7 @@ NOISE_TOLERANCE = 0.15  # relative, robust noise estimate from ~100 third differ
 PX_PER_M = 200.0  # image scale of the synthetic tables and clips, px/m
 FLOOR_ROW_PX = 205.0  # image row of the floor, px
 BALL_RADIUS_M = 0.025
+SPAN_TOLERANCE_FRAMES = 0.5  # frame intervals: fitted apex and contact times are good to a few ms
 
 
 @pytest.fixture(scope="module")
@@ -82,25 +83,44 @@ def test_recording_violations_name_each_limit_with_value_and_limit():
 
 
 def test_flight_violation_names_the_impact_and_the_short_flight():
-    limit = video_limits.MIN_CLEAN_FRAMES_PER_FLIGHT
-    assert video_limits.flight_violation(dict(impact=1, n_samples_before=limit, n_samples_after=limit)) is None
-    reason = video_limits.flight_violation(dict(impact=3, n_samples_before=40, n_samples_after=limit - 5))
-    assert reason == f"impact 3: clean frames in the flight after it: {limit - 5} < {limit}"
+    span, clean = video_limits.MIN_FRAME_INTERVALS_PER_FLIGHT, video_limits.MIN_CLEAN_FRAMES_PER_FLIGHT
+    row = dict(impact=1, n_samples_before=clean, n_samples_after=clean)
+    assert video_limits.flight_violation(row, span, span) is None
+    short = video_limits.flight_violation(dict(row, impact=2), span + 10, span - 2.5)
+    assert short == f"impact 2: the flight after it lasts {span - 2.5:.1f} frame intervals < {span}"
+    sparse = video_limits.flight_violation(dict(row, impact=3, n_samples_after=clean - 5), span + 10, span + 10)
+    assert sparse == f"impact 3: clean frames in the flight after it: {clean - 5} < {clean}"
+
+
+def test_flight_spans_are_the_fall_of_the_drop_and_whole_bounces(drop):
+    """At 60 frames/s the spans match the generator's flight times (the drop from its release)."""
+    fps = 60.0
+    table = tracked_table(drop, fps=fps, duration_s=2.6)
+    heights = (FLOOR_ROW_PX - table["y_px"].to_numpy()) / PX_PER_M
+    analysis = analyse_bounces(table["time_s"].to_numpy(), heights, contact_height_m=BALL_RADIUS_M)
+    before, after = video_limits.flight_spans(analysis, 1.0 / fps)
+    touchdowns = drop.impacts["t_s"].to_numpy()[: len(before) + 1]
+    true_before = np.diff(np.concatenate([[drop.release_time_s], touchdowns]))[: len(before)] * fps
+    # the last flight may run past the clip, so its span is twice its rise: compare the others
+    assert before == pytest.approx(true_before, abs=SPAN_TOLERANCE_FRAMES)
+    assert after[:-1] == pytest.approx(true_before[1:], abs=SPAN_TOLERANCE_FRAMES)
 
 
 def test_late_short_flights_are_dropped_with_a_reason_and_the_rest_kept(drop):
-    """At 60 frames/s the flights last 24, 36, 27, 20, 15 … frames: impacts from the 4th on are dropped."""
+    """At 60 frames/s the flights last 24, 36, 27, 20, 15 … frame intervals: impacts from the 3rd on
+    are dropped (the flight after it lasts fewer than 22)."""
     table = tracked_table(drop, fps=60.0, duration_s=2.6)
     heights = (FLOOR_ROW_PX - table["y_px"].to_numpy()) / PX_PER_M
     analysis = analyse_bounces(table["time_s"].to_numpy(), heights, contact_height_m=BALL_RADIUS_M)
-    kept = video_limits.select_resolved_impacts(analysis, "clip.avi")
-    counts = analysis.impacts[["n_samples_before", "n_samples_after"]].min(axis=1).to_numpy()
-    first_short = int(np.argmax(counts < video_limits.MIN_CLEAN_FRAMES_PER_FLIGHT))
+    kept = video_limits.select_resolved_impacts(analysis, "clip.avi", 1.0 / 60.0)
+    before, after = video_limits.flight_spans(analysis, 1.0 / 60.0)
+    first_short = int(np.argmax(np.minimum(before, after) < video_limits.MIN_FRAME_INTERVALS_PER_FLIGHT))
     assert 1 <= first_short < len(analysis.impacts)  # the test needs both kinds of impact
     assert len(kept.impacts) == first_short == kept.summary["n_impacts"]
     assert kept.e_covariance.shape == (first_short, first_short)
+    assert kept.e_contact_covariance.shape == (2 * first_short, 2 * first_short)
     assert len(kept.flights) == first_short + 1
-    assert kept.summary["impacts_dropped"][0].startswith(f"impact {first_short + 1}: clean frames in the flight")
+    assert kept.summary["impacts_dropped"][0].startswith(f"impact {first_short + 1}: the flight")
     true_e = drop.impacts["e"].to_numpy()[:first_short]
     assert np.all(np.abs(kept.impacts["e"].to_numpy() - true_e) < E_TOLERANCE)
 
@@ -137,8 +157,8 @@ def test_a_30_fps_clip_is_refused_for_its_short_first_flight(tmp_path, drop):
     with pytest.raises(InputError) as caught:
         measure_and_analyse(tmp_path, render(tmp_path, drop, fps=30.0))
     message = str(caught.value)
-    assert message.startswith(f"{tmp_path / 'clip.avi'}: not analysable: impact 1: clean frames in the flight")
-    assert message.endswith(f" < {video_limits.MIN_CLEAN_FRAMES_PER_FLIGHT}")
+    assert message.startswith(f"{tmp_path / 'clip.avi'}: not analysable: impact 1: the flight before it lasts")
+    assert message.endswith(f" < {video_limits.MIN_FRAME_INTERVALS_PER_FLIGHT}")
 
 
 def test_a_clip_above_the_limits_gives_e_within_tolerance_of_the_truth(tmp_path, drop):

@@ -87,7 +87,8 @@ def analyse(trajectory_path, impacts_path, flights_path, summary_path, drag="aut
     # a video frame is exposed for up to one frame interval around its time: keep the flights half an
     # interval clear of the contacts, where a frame may show the ball flattened
     time = trajectory["time"].values
-    guard = 0.5 * float(np.median(np.diff(time))) if "video" in attrs else 0.0
+    frame_interval = float(np.median(np.diff(time)))
+    guard = 0.5 * frame_interval if "video" in attrs else 0.0
     result = analyse_bounces(time, trajectory["y"].values, gravity_m_s2=gravity_m_s2,
                              drag=drag, contact_height_m=contact_height,
                              source=attrs.get("source", str(trajectory_path)),
@@ -95,7 +96,7 @@ def analyse(trajectory_path, impacts_path, flights_path, summary_path, drag="aut
                              contact_height_se_m=float(attrs.get("floor_se_m", 0.0)), contact_guard_s=guard,
                              nominal_drag_k_per_m=nominal_drag(attrs.get("ball_radius_m"), attrs.get("ball_mass_kg")))
     if "video" in attrs:  # a video's later bounces may be too briefly filmed to resolve
-        result = video_limits.select_resolved_impacts(result, attrs["video"])
+        result = video_limits.select_resolved_impacts(result, attrs["video"], frame_interval)
     with atomic_output(impacts_path) as tmp:
         result.impacts.to_csv(tmp, index=False, float_format="%.9g")
     with atomic_output(flights_path) as tmp:

@@ -10,8 +10,8 @@ analysis measure, never the ground truth:
 
 * the tracked ball radius (px) and the fraction of frames measured cleanly, checked on the tracked
   table by :func:`check_recording`: below them the whole recording is refused;
-* the clean frames in each flight, checked per impact by :func:`select_resolved_impacts`: the
-  impacts from the first under-sampled flight on are dropped with the reason stated, and the
+* how many frame intervals each flight lasts and how many clean frames it has, checked per impact
+  by :func:`select_resolved_impacts`: the impacts from the first under-sampled flight on are dropped with the reason stated, and the
   recording is refused only when its first impact is among them (later bounces are shorter, so
   dropping them first loses the least).
 
@@ -41,11 +41,18 @@ MIN_BALL_RADIUS_PX = 2.0
 #: right with 34 % clean (ball radius 1.5 px) and 46 % (noise σ = 25 grey levels); at σ ≥ 27.5 at
 #: most 3 % of the frames are clean, or fewer than 10 in all.
 MIN_CLEAN_FRACTION = 0.30
-#: Fewest clean frames in each of the two flights around an impact. Sweep: with 6–16 clean frames
-#: before impact 1 (30–50 frames/s, or 60 with long exposures) e₁ was off by 5–8 × 10⁻³ (2–4
-#: standard errors) in 3 of 15 clips (in the one examined, the information criterion had taken a
-#: drag term that is not there); with ≥ 20 every clip's e₁ was within 3 × 10⁻⁴.
-MIN_CLEAN_FRAMES_PER_FLIGHT = 20
+#: Fewest frame intervals a flight around an impact must last (the drop: from its apex, the release,
+#: to touchdown; a bounce: from lift-off to touchdown). Sweep: e₁ was off by 5–8 × 10⁻³ (2–4
+#: standard errors) in 3 of the clips whose fall lasted 11.7–20.8 frame intervals (30–50 frames/s;
+#: in the one examined, the information criterion had taken a drag term that is not there) and
+#: within 1 × 10⁻⁴ in every clip whose fall lasted ≥ 23.5. A high-speed close-up films only the last
+#: milliseconds of a long fall: it is the flight that must be sampled densely, not the clip.
+MIN_FRAME_INTERVALS_PER_FLIGHT = 22
+#: Fewest clean frames in each of the two flights around an impact. Sweep: with 10–15 clean frames
+#: in a fall of ≥ 23.5 frame intervals (60 frames/s, long exposures rejected the streaked frames)
+#: e₁ was within 1 × 10⁻⁴; the 1000 frames/s close-up sees 12 clean frames before its contact and
+#: gives e within 5 × 10⁻⁵ (tests/test_videolog.py).
+MIN_CLEAN_FRAMES_PER_FLIGHT = 10
 
 
 def recording_measures(table):
@@ -112,18 +119,53 @@ def check_recording(table, source):
         raise InputError(f"{source}: not analysable: {'; '.join(violations)}")
 
 
-def flight_violation(impacts_row):
-    """Why an impact (a row of the impacts table) is unresolved, or None if both flights are sampled enough."""
-    before, after = int(impacts_row["n_samples_before"]), int(impacts_row["n_samples_after"])
-    if min(before, after) >= MIN_CLEAN_FRAMES_PER_FLIGHT:
-        return None
-    side = "before" if before < after else "after"
-    return (f"impact {int(impacts_row['impact'])}: clean frames in the flight {side} it: "
-            f"{min(before, after)} < {MIN_CLEAN_FRAMES_PER_FLIGHT}")
+def flight_violation(impacts_row, frames_before, frames_after):
+    """Why an impact is unresolved, or None if both its flights are sampled densely enough.
+
+    Parameters
+    ----------
+    impacts_row : mapping
+        A row of the impacts table (``impact``, ``n_samples_before``, ``n_samples_after``: clean frames).
+    frames_before, frames_after : float
+        How many frame intervals the flights before and after the impact last.
+    """
+    for side, span, clean in (("before", frames_before, impacts_row["n_samples_before"]),
+                              ("after", frames_after, impacts_row["n_samples_after"])):
+        if span < MIN_FRAME_INTERVALS_PER_FLIGHT:
+            return (f"impact {int(impacts_row['impact'])}: the flight {side} it lasts {span:.1f} frame intervals "
+                    f"< {MIN_FRAME_INTERVALS_PER_FLIGHT}")
+        if clean < MIN_CLEAN_FRAMES_PER_FLIGHT:
+            return (f"impact {int(impacts_row['impact'])}: clean frames in the flight {side} it: {int(clean)} "
+                    f"< {MIN_CLEAN_FRAMES_PER_FLIGHT}")
+    return None
 
 
-def select_resolved_impacts(analysis, source):
-    """Keep the impacts whose two flights both have enough clean frames, up to the first that does not.
+def flight_spans(analysis, frame_interval_s):
+    """Frame intervals the flights before and after each impact last (see MIN_FRAME_INTERVALS_PER_FLIGHT).
+
+    Parameters
+    ----------
+    analysis : dropfit.analysis.BounceAnalysis
+        The analysis of a video's trajectory.
+    frame_interval_s : float
+        Time between frames in s.
+
+    Returns
+    -------
+    (numpy.ndarray, numpy.ndarray)
+        Per impact, the frame intervals of the flight before it (the drop: from its apex) and of the
+        flight after it (the last: twice its rise to the apex).
+    """
+    touchdown = analysis.impacts["t_touchdown_s"].to_numpy()
+    liftoff = analysis.impacts["t_liftoff_s"].to_numpy()
+    apex = analysis.flights["t_apex_s"].to_numpy()
+    starts = np.concatenate([[apex[0]], liftoff[:-1]])
+    ends = np.append(touchdown[1:], liftoff[-1] + 2.0 * (apex[len(liftoff)] - liftoff[-1]))
+    return (touchdown - starts) / frame_interval_s, (ends - liftoff) / frame_interval_s
+
+
+def select_resolved_impacts(analysis, source, frame_interval_s):
+    """Keep the impacts whose two flights are both sampled densely enough, up to the first that is not.
 
     Parameters
     ----------
@@ -131,6 +173,8 @@ def select_resolved_impacts(analysis, source):
         The analysis of a video's trajectory.
     source : str or pathlib.Path
         The recording, named in the message.
+    frame_interval_s : float
+        Time between frames in s.
 
     Returns
     -------
@@ -144,7 +188,9 @@ def select_resolved_impacts(analysis, source):
     InputError
         When the first impact is unresolved: nothing is left to report.
     """
-    reasons = [flight_violation(row) for _, row in analysis.impacts.iterrows()]
+    spans = flight_spans(analysis, frame_interval_s)
+    reasons = [flight_violation(row, before, after)
+               for (_, row), before, after in zip(analysis.impacts.iterrows(), *spans)]
     kept = next((i for i, reason in enumerate(reasons) if reason is not None), len(reasons))
     if kept == 0:
         raise InputError(f"{source}: not analysable: {reasons[0]}")
