@@ -17,8 +17,7 @@ COVERAGE_MIN, COVERAGE_MAX = 0.90, 0.98  # fraction of 95 % intervals that cover
 LOGS_PER_SCENARIO = 100  # 600 logs in all; 100 per-recording pairs resolve the band (binomial sd 2 %)
 VIDEOS = 200  # small clips, about 0.2 s each on a quiet core (rendering dominates)
 MIN_PAIRS = 70  # a coverage from fewer pairs is too noisy to test against the 90–98 % band
-VIDEO_COVERAGE_FLOOR = 0.85  # what the video intervals reach today (200 clips: 90.8 % e, 89.8 % heights)
-VIDEO_BIAS_MAX = 0.6  # largest |mean (value − truth)/se| of the video quantities (200 clips: 0.30, 0.42)
+VIDEO_BIAS_MAX = 0.6  # largest |mean (value − truth)/se| of the video quantities (200 clips: 0.26, 0.41)
 CHOICE_MIN = 0.95  # fraction of logs in which the generating (or simpler) model must be chosen
 
 
@@ -79,16 +78,9 @@ def video_coverage(tmp_path_factory):
 
 
 @pytest.mark.slow
-def test_video_intervals_are_close_to_their_nominal_coverage(video_coverage):
+def test_video_intervals_cover_the_truth_90_to_98_percent(video_coverage):
+    print("\n[coverage] videos:\n" + video_coverage.to_string())
     assert set(video_coverage["quantity"]) == {"e", "h_after_m"}
     assert (video_coverage["n"] >= MIN_PAIRS).all()
-    assert (video_coverage["coverage"] >= VIDEO_COVERAGE_FLOOR).all(), video_coverage.to_string()
-    assert (video_coverage["mean_z"].abs() < VIDEO_BIAS_MAX).all(), video_coverage.to_string()
-
-
-@pytest.mark.slow
-@pytest.mark.xfail(strict=True, reason="heights from the clips carry a bias of about 0.3–0.4 standard errors "
-                                       "(it enters between the image and the tracked centre), so the intervals cover "
-                                       "88–91 % instead of 90–98 %")
-def test_video_intervals_cover_the_truth_90_to_98_percent(video_coverage):
     assert video_coverage["coverage"].between(COVERAGE_MIN, COVERAGE_MAX).all(), video_coverage.to_string()
+    assert (video_coverage["mean_z"].abs() < VIDEO_BIAS_MAX).all(), video_coverage.to_string()
