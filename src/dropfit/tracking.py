@@ -42,9 +42,13 @@ Quality flags, one per frame (column ``quality``):
     No ball was found (it left the image, or it is hidden): ``x_px``, ``y_px`` and ``radius_px``
     are NaN.
 ``duplicate``
-    The frame is identical (within ``DUPLICATE_TOLERANCE_GREY``) to the previous frame, as when
-    a recorder repeats frames to fill a nominal rate: its time stamp does not belong to its
-    content, so it is dropped from the trajectory (NaN position).
+    The frame is identical to the previous frame, as when a recorder repeats frames to fill a
+    nominal rate: its time stamp does not belong to its content, so it is dropped from the
+    trajectory (NaN position). Identical means a mean absolute difference of sparse samples within
+    ``DUPLICATE_TOLERANCE_GREY`` (the sensor noise repeats) and no pixel of the whole frame
+    changing by more than the foreground threshold (nothing moved), while the ball was predicted
+    to move (more than ``STILL_BALL_STEP_PX``): a ball at rest in a noise-free video gives
+    identical frames that are true ones.
 
 ``ok`` rows are meant for fitting trajectories, and so are ``partial`` rows whose ``centre_se_px``
 and ``fit_rms_px`` are small (:func:`usable_rows`). ``centre_se_px`` and ``fit_rms_px`` are NaN for
@@ -124,6 +128,9 @@ DUPLICATE_TOLERANCE_GREY = 0.5
 BACKGROUND_SAMPLES = 11
 #: Pixels between the sparse samples of the duplicate test.
 DUPLICATE_STRIDE_PX = 16
+#: A frame identical to the previous one is not a duplicate when the ball is predicted to move less
+#: than this between them, px (a ball at rest in a noise-free video).
+STILL_BALL_STEP_PX = 0.1
 #: Extra margin of the search window, px.
 WINDOW_MARGIN_PX = 6
 #: Radius of the disc cut out of a background sample around a tracked ball, in tracked radii (a
@@ -693,7 +700,7 @@ class BallTracker:
         return BallMeasurement(result.x_px + x0, result.y_px + y0, result.radius_px, result.quality,
                                result.area_px2, result.truncated, result.centre_se_px, result.fit_rms_px)
 
-    def _is_duplicate(self, frame, centre, half_size):
+    def _is_duplicate(self, frame, predicted, predicted_step_px):
         previous = self._previous
         if previous is None or previous.shape != frame.shape:
             return False
@@ -701,16 +708,11 @@ class BallTracker:
         sparse = np.abs(frame[::s, ::s, ...].astype(np.int16) - previous[::s, ::s, ...]).mean()
         if sparse > self.duplicate_tolerance_grey:
             return False
-        if centre is None:
-            return True
-        x0 = max(int(centre[0] - half_size), 0)
-        y0 = max(int(centre[1] - half_size), 0)
-        x1 = min(int(centre[0] + half_size) + 1, self.width)
-        y1 = min(int(centre[1] + half_size) + 1, self.height)
-        if x1 <= x0 or y1 <= y0:
-            return True
-        window = np.abs(frame[y0:y1, x0:x1].astype(np.int16) - previous[y0:y1, x0:x1]).mean()
-        return window <= self.duplicate_tolerance_grey
+        # the sparse samples miss a small ball: nothing in the whole frame may have moved
+        if float(cv2.absdiff(frame, previous).max()) > self.background.threshold_grey:
+            return False
+        # a ball at rest in a noise-free video repeats itself: its frames are true, not repeated
+        return predicted is None or predicted_step_px > STILL_BALL_STEP_PX
 
     def update(self, frame):
         """Measure the ball in the next frame.
@@ -733,7 +735,7 @@ class BallTracker:
         predicted, step = self._predict()
         radius = self.radius_ref_px or 10.0
         half_size = 1.5 * radius + 2.0 * step + WINDOW_MARGIN_PX
-        duplicate = self._is_duplicate(frame, predicted, half_size)
+        duplicate = self._is_duplicate(frame, predicted, step)
         self._previous = frame
         if duplicate:
             return math.nan, math.nan, math.nan, QUALITY_DUPLICATE, math.nan, math.nan
