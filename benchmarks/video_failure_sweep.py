@@ -21,7 +21,7 @@ exactly as ``snakemake`` runs them. Measured per clip:
 
 * ``e_error_1``, ``e_error_2`` — e of impact 1 and 2 minus the generator's e; ``outside_95_n`` says
   whether that error exceeded the reported 95 % interval (1.96 standard errors);
-* ``centre_rms_error_px`` — RMS distance of the tracked centre of the clean (``ok``) frames from the
+* ``centre_rms_error_px`` — RMS distance of the tracked centre of the clean (``ok`` and ``blurred``) frames from the
   exposure-averaged centroid of the drawn ball, frames off by more than 3 px counted as lost
   (``score`` of ``benchmarks/tracking_speed.py``);
 * ``frames_lost_fraction`` — fraction of the frames with the ball in view that are not clean, or
@@ -75,7 +75,7 @@ from dropfit import stages, video_limits  # noqa: E402
 from dropfit.contact import LinearContact  # noqa: E402
 from dropfit.errors import InputError  # noqa: E402
 from dropfit.synth import simulate_drop  # noqa: E402
-from dropfit.tracking import QUALITY_OK, track_video  # noqa: E402
+from dropfit.tracking import CLEAN_QUALITIES, track_video  # noqa: E402
 from dropfit.video_synth import Camera, Scene, render_video  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
@@ -135,7 +135,7 @@ def run_clip(point, seed, directory):
     if table is None:
         row.update(centre_rms_error_px=math.nan, frames_lost_fraction=1.0)
     else:
-        clean = (table["quality"] == QUALITY_OK).to_numpy()
+        clean = table["quality"].isin(CLEAN_QUALITIES).to_numpy()
         rms, _, lost, evaluated = score(np.where(clean, table["x_px"], np.nan), np.where(clean, table["y_px"], np.nan),
                                         frames)
         row.update(centre_rms_error_px=rms, frames_lost_fraction=lost / evaluated)

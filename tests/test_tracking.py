@@ -9,7 +9,7 @@ import pytest
 
 from dropfit.errors import InputError
 from dropfit.synth import simulate_drop
-from dropfit.tracking import (QUALITY_DUPLICATE, QUALITY_LOST, QUALITY_OCCLUDED, QUALITY_OK, QUALITY_PARTIAL,
+from dropfit.tracking import (QUALITY_BLURRED, QUALITY_DUPLICATE, QUALITY_LOST, QUALITY_OCCLUDED, QUALITY_OK, QUALITY_PARTIAL,
                               track_frames, track_video, usable_rows)
 from dropfit.video_synth import Camera, FrameRenderer, Scene, default_clips
 
@@ -337,3 +337,28 @@ def test_noise_free_clip_is_tracked_and_only_repeated_frames_are_duplicates(caps
     report(capsys, f"noise-free, {len(frames)} frames: {ok.mean():.1%} ok, centre RMS {rms(errors[ok]):.4f} px")
     assert ok.mean() >= 0.95
     assert rms(errors[ok]) <= CLEAN_RMS_TOLERANCE_PX
+
+
+def test_ball_blurred_longer_than_its_diameter_is_measured(capsys):
+    """Decision: at 60 fps with the shutter open for the whole frame interval the ball travels up to
+    its diameter during the exposure near the floor, a streak up to twice as long as the ball. Such a
+    streak (a stadium of the ball's radius along its motion) is measured as ``blurred``, centre =
+    coverage-weighted centroid, and compared with the renderer's exposure-averaged centroid; the ball
+    held still by a hand is not taken for a streak."""
+    camera = Camera(320, 400, 60.0, 1 / 60.0, px_per_m=400.0, image_row_of_floor_px=380.0, noise_sigma=2.0)
+    frames, truth = render_clip(camera, Scene(hand=True), 1.7, 0.1, seed=12)
+    table = track_frames(frames, truth["time_s"])
+    quality = table["quality"].to_numpy()
+    streak_px = np.abs(np.gradient(truth["y_px"].to_numpy())) * camera.exposure * camera.fps
+    long_streak = (streak_px > truth["radius_px"]) & truth["visible"].to_numpy()  # 1.5 diameters or longer
+    blurred = quality == QUALITY_BLURRED
+    errors = centre_errors(table, truth[["centroid_x_px", "centroid_y_px"]].to_numpy())
+    report(capsys, f"60 fps, full-interval exposure: {long_streak.sum()} frames streaked over > 1.5 diameters, "
+                   f"{blurred.sum()} blurred; their centre RMS {rms(errors[blurred]):.4f} px, "
+                   f"max {errors[blurred].max():.4f} px")
+    assert long_streak.sum() >= 10
+    assert np.isin(quality[long_streak], [QUALITY_OK, QUALITY_BLURRED]).all()
+    assert blurred.sum() >= 10
+    assert errors[blurred].max() <= NOISY_RMS_TOLERANCE_PX
+    assert usable_rows(table)[long_streak].all()
+    assert not blurred[truth["time_s"].to_numpy() < 0.1].any()  # held still by the hand until 0.1 s

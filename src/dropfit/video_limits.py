@@ -31,7 +31,7 @@ import numpy as np
 
 from .analysis import estimate_noise
 from .errors import InputError
-from .tracking import QUALITY_DUPLICATE, QUALITY_OK
+from .tracking import CLEAN_QUALITIES, QUALITY_DUPLICATE
 
 #: Smallest tracked ball radius, px. Sweep: a ball drawn with radius 1 px is never found and one of
 #: 1.25 px in no clean frame; drawn with 1.5–2 px it is tracked as 2.2–2.3 px (the edge threshold
@@ -59,15 +59,15 @@ def recording_measures(table):
     Returns
     -------
     dict
-        ``ball_radius_px`` (median tracked radius of the clean frames, px), ``clean_fraction``
-        (clean frames over the frames, duplicates left out, from the first clean frame to the last:
+        ``ball_radius_px`` (median tracked radius of the clean frames, ``ok`` and ``blurred``, px),
+        ``clean_fraction`` (clean frames over the frames, duplicates left out, from the first clean frame to the last:
         a hand holding the ball before it or an empty scene after it does not count against the
         recording), ``centre_noise_px`` (robust noise of the clean frames' centre rows, px),
         ``travel_px`` (range of those rows, px) and ``noise_to_travel`` (their ratio). Radius,
         noise and travel are NaN when no frame is clean.
     """
     kept = table[table["quality"] != QUALITY_DUPLICATE]
-    is_clean = (kept["quality"] == QUALITY_OK).to_numpy()
+    is_clean = kept["quality"].isin(CLEAN_QUALITIES).to_numpy()
     clean = kept[is_clean]
     rows = clean["y_px"].to_numpy(float)
     span = np.flatnonzero(is_clean)
