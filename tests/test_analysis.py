@@ -273,3 +273,23 @@ def test_scale_uncertainty_enters_heights_and_e(tennis_truth):
     assert 0.7 < np.std(z_drop) < 1.35
     assert 0.7 < np.std(z_e) < 1.35
     assert np.std(z_without) > 3.0
+
+
+def test_root_searches_grow_linearly_with_the_impacts(tennis_truth):
+    """Decision: the cost of a long log grows with its number of flights, not its square. Counted, not
+    timed: the meeting-height root searches (the bulk of the work with drag) per impact are the same
+    for the first 4 impacts of a log and for all 10; a numerical Jacobian that searched every root
+    again for each parameter moved needed twice as many per impact for 10."""
+    from unittest import mock
+
+    from dropfit import analysis
+
+    log = sensor_log(tennis_truth, 0)
+    per_impact = []
+    for end_s in (4.0, np.inf):
+        part = log["time_s"] <= end_s
+        with mock.patch.object(analysis, "_meeting_height", wraps=analysis._meeting_height) as root_search:
+            result = analyse_bounces(log["time_s"][part], log["y_m"][part])
+        assert result.summary["drag_model"] == "quadratic"  # the drag model is the one with root searches
+        per_impact.append(root_search.call_count / result.summary["n_impacts"])
+    assert per_impact[1] <= 1.2 * per_impact[0]

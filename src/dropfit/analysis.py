@@ -237,13 +237,19 @@ class _ImpactQuantities:
         self.n_impacts = model.n_flights - 1
         self.given_contact_height = contact_height_m
         self.weights = np.ones(self.n_impacts)
+        self._meetings = {}  # (y_apex, t_apex before, after, k) → meeting height, m
 
     def meeting_heights(self, theta):
+        # remembered per impact: a numerical Jacobian moves one parameter at a time, which changes
+        # only the impacts next to its flight (k changes all), so the others need no new root search
         y_apex, t_apex, k = self.model.unpack(theta)
-        return np.array([
-            _meeting_height(y_apex[i], t_apex[i], y_apex[i + 1], t_apex[i + 1], k, self.model.g)
-            for i in range(self.n_impacts)
-        ])
+        heights = np.empty(self.n_impacts)
+        for i in range(self.n_impacts):
+            key = (y_apex[i], t_apex[i], y_apex[i + 1], t_apex[i + 1], k)
+            if key not in self._meetings:
+                self._meetings[key] = _meeting_height(*key, self.model.g)
+            heights[i] = self._meetings[key]
+        return heights
 
     def contact_height(self, theta):
         if self.given_contact_height is not None:
