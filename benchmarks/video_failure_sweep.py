@@ -40,16 +40,21 @@ Output: ``benchmarks/video_failure_sweep.csv`` (one row per clip) and
 95 % half-width, centre RMS error, frames lost; refused clips drawn red; the range where dropfit
 refuses shaded).
 
-Run (114 clips; 236 s of CPU, 420 s wall on the shared 2-core machine where the committed CSV and
-chart were made; ``--chart-only`` redraws the chart from the CSV):
+Run (114 clips; 331 s wall on the shared 2-core machine where the committed CSV and chart were
+made; ``--chart-only`` redraws the chart from the CSV):
 
     PYTHONPATH=src python benchmarks/video_failure_sweep.py [--seeds 3] [--chart-only]
 
-Result of that run: the 75 clips dropfit accepted have |error of e₁| ≤ 2.7 × 10⁻⁴ (median 0.9 × 10⁻⁴);
-of the 20 refused by the limits, 15 could be analysed without them and 3 of those had e₁ off by
-5–8 × 10⁻³ (30–50 frames/s). The accepted clips' errors nevertheless fall outside the reported 95 % interval (a
-+1 × 10⁻⁴ bias that the interval does not include; it is what a floor edge found 0.03–0.08 px below
-the drawn floor line, as in the clips checked, gives through the contact height).
+Result of that run (tracker measuring motion-blur streaks longer than the ball as ``blurred``, and
+flagging a frame ``duplicate`` only when the whole frame repeats): the 86 clips dropfit accepted
+have |error of e₁| ≤ 2.6 × 10⁻⁴ (median 0.9 × 10⁻⁴), except the 1.5 px ball (≤ 7 × 10⁻⁴, within its
+standard error of 2 × 10⁻³); 7 of them lie outside the reported 95 % interval (noise σ 5–20, a
++1 × 10⁻⁴ bias). Of the 17 refused by the limits, 12 could be analysed without them and one had e₁
+off by 3 × 10⁻³ (19 standard errors; 15 frames/s, 5 clean frames before impact 1). The earlier run,
+whose tracker flagged streaks longer than the ball ``occluded``, had 3 clips with e₁ off by
+5–8 × 10⁻³ at 30–50 frames/s with 6–16 clean frames; the 60 frames/s clips with an exposure of ¾ and
+1 frame interval, refused then, now keep 22–25 clean frames before impact 1 and have e₁ within
+1 × 10⁻⁴, and the noise-free clips, refused then (every frame taken for a duplicate), within 1 × 10⁻⁴.
 """
 
 from __future__ import annotations
