@@ -11,8 +11,8 @@ breaks down:
 * ``table tennis, strong drag`` — ``table_tennis_drag`` (k = 0.14 /m, terminal speed 8.4 m/s), first 5 s.
 
 The steel and table-tennis logs are cut to their first 7–8 impacts (the bundled ones run to rest,
-30–50 impacts): the drag fit's time grows faster than the number of flights (about 2–5 s on the
-whole logs) and would dominate the run; the scored impacts are the same.
+30–50 impacts): the drag fit's time grows with the number of flights and would dominate the run
+on the whole logs; the scored impacts are the same.
 
 What each estimator is given: the log (time s, height m); ``peak heights`` also gets the true contact
 height (floor + radius, as an ITF rig measures it: the method cannot find it); the others find it
@@ -31,7 +31,7 @@ wall time in ms, ratio to the fastest, RMS and bias of the e error, largest |err
 standard error, impacts scored and missed, logs refused) and ``benchmarks/estimators.png`` (wall time against RMS
 error, log-log).
 
-Run (about 1 min on a quiet 2-core machine; seeded, the errors are reproducible, the times are not):
+Run (about 15 s on a quiet 2-core machine; seeded, the errors are reproducible, the times are not):
 
     PYTHONPATH=src python benchmarks/estimators.py [SEEDS] [REPEATS]
 

@@ -9,7 +9,7 @@ import pytest
 
 from dropfit.errors import InputError
 from dropfit.synth import simulate_drop
-from dropfit.tracking import (QUALITY_DUPLICATE, QUALITY_LOST, QUALITY_OCCLUDED, QUALITY_OK, QUALITY_PARTIAL,
+from dropfit.tracking import (QUALITY_BLURRED, QUALITY_DUPLICATE, QUALITY_LOST, QUALITY_OCCLUDED, QUALITY_OK, QUALITY_PARTIAL,
                               track_frames, track_video, usable_rows)
 from dropfit.video_synth import Camera, FrameRenderer, Scene, default_clips
 
@@ -309,3 +309,56 @@ def test_partial_frames_circle_fit_with_known_radius(edge_cut_clip, capsys):
     assert usable_rows(table, radius)[flight].all()
     assert not usable_rows(table).any()  # no clean frame and no radius given: none usable
 
+
+
+def render_clip(camera, scene, duration_s, release_s, seed):
+    """Frames and ground-truth rows of a 0.8 m drop of a 33 mm ball (e = 0.75) filmed by ``camera``."""
+    truth = simulate_drop(0.8, 0.033, {"kind": "constant", "e0": 0.75}, release_time_s=release_s)
+    renderer = FrameRenderer(truth, camera, scene, seed=seed)
+    frames, rows = zip(*(renderer.render(k) for k in range(int(round(duration_s * camera.fps)))))
+    return list(frames), pd.DataFrame(rows)
+
+
+def test_noise_free_clip_is_tracked_and_only_repeated_frames_are_duplicates(capsys):
+    """Decision: a frame is a duplicate only when the whole frame repeats the previous one while the
+    ball was predicted to move. A noise-free clip (identical background in every frame) is tracked
+    in full, the ball held still before release included; frames copied over their successor in
+    mid-flight are still flagged."""
+    camera = Camera(320, 400, 240.0, px_per_m=400.0, image_row_of_floor_px=380.0, noise_sigma=0.0)
+    frames, truth = render_clip(camera, Scene(), 1.7, 0.1, seed=11)
+    copied = [100, 101, 250]  # two in a row, and one more
+    for i in copied:
+        frames[i] = frames[i - 1]
+    table = track_frames(frames, truth["time_s"])
+    quality = table["quality"].to_numpy()
+    assert np.flatnonzero(quality == QUALITY_DUPLICATE).tolist() == copied
+    ok = quality == QUALITY_OK
+    errors = centre_errors(table, truth[["centroid_x_px", "centroid_y_px"]].to_numpy())
+    report(capsys, f"noise-free, {len(frames)} frames: {ok.mean():.1%} ok, centre RMS {rms(errors[ok]):.4f} px")
+    assert ok.mean() >= 0.95
+    assert rms(errors[ok]) <= CLEAN_RMS_TOLERANCE_PX
+
+
+def test_ball_blurred_longer_than_its_diameter_is_measured(capsys):
+    """Decision: at 60 fps with the shutter open for the whole frame interval the ball travels up to
+    its diameter during the exposure near the floor, a streak up to twice as long as the ball. Such a
+    streak (a stadium of the ball's radius along its motion) is measured as ``blurred``, centre =
+    coverage-weighted centroid, and compared with the renderer's exposure-averaged centroid; the ball
+    held still by a hand is not taken for a streak."""
+    camera = Camera(320, 400, 60.0, 1 / 60.0, px_per_m=400.0, image_row_of_floor_px=380.0, noise_sigma=2.0)
+    frames, truth = render_clip(camera, Scene(hand=True), 1.7, 0.1, seed=12)
+    table = track_frames(frames, truth["time_s"])
+    quality = table["quality"].to_numpy()
+    streak_px = np.abs(np.gradient(truth["y_px"].to_numpy())) * camera.exposure * camera.fps
+    long_streak = (streak_px > truth["radius_px"]) & truth["visible"].to_numpy()  # 1.5 diameters or longer
+    blurred = quality == QUALITY_BLURRED
+    errors = centre_errors(table, truth[["centroid_x_px", "centroid_y_px"]].to_numpy())
+    report(capsys, f"60 fps, full-interval exposure: {long_streak.sum()} frames streaked over > 1.5 diameters, "
+                   f"{blurred.sum()} blurred; their centre RMS {rms(errors[blurred]):.4f} px, "
+                   f"max {errors[blurred].max():.4f} px")
+    assert long_streak.sum() >= 10
+    assert np.isin(quality[long_streak], [QUALITY_OK, QUALITY_BLURRED]).all()
+    assert blurred.sum() >= 10
+    assert errors[blurred].max() <= NOISY_RMS_TOLERANCE_PX
+    assert usable_rows(table)[long_streak].all()
+    assert not blurred[truth["time_s"].to_numpy() < 0.1].any()  # held still by the hand until 0.1 s

@@ -73,6 +73,16 @@ def test_duplicates_and_frames_before_or_after_the_ball_was_seen_do_not_count_as
     assert video_limits.recording_measures(table)["clean_fraction"] == pytest.approx(expected)
 
 
+def test_blurred_frames_count_as_clean(drop):
+    """Decision: a ``blurred`` frame (a motion-blur streak, centre = exposure-mean centroid) is measured
+    cleanly, like an ``ok`` one; an ``occluded`` one is not."""
+    table = tracked_table(drop, fps=60.0)
+    table.loc[table.index % 3 == 1, "quality"] = "blurred"
+    assert video_limits.recording_measures(table)["clean_fraction"] == 1.0
+    table.loc[table.index % 3 == 1, "quality"] = "occluded"
+    assert video_limits.recording_measures(table)["clean_fraction"] == pytest.approx(2 / 3, abs=1 / len(table))
+
+
 def test_recording_violations_name_each_limit_with_value_and_limit():
     good = dict(ball_radius_px=5.0, clean_fraction=0.9)
     assert video_limits.recording_violations(good) == []

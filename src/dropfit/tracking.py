@@ -24,6 +24,12 @@ Quality flags, one per frame (column ``quality``):
 
 ``ok``
     A lone, complete ball: centre and radius are measured as above.
+``blurred``
+    A lone ball blurred by its motion into a streak longer than its own diameter: a stadium of
+    about the expected radius, along the predicted motion, swept at most about as far as the ball
+    travels in a frame interval (:func:`_is_streak`). The centre is the coverage-weighted centroid,
+    as for ``ok``: the ball's centre averaged over the exposure. No pixel is covered for the whole
+    exposure, so the radius is not measured: it is held at the radius of the ``ok`` frames.
 ``partial``
     The ball is cut by the image border: the centre comes from a geometric circle fit to the
     sub-pixel points of the visible outline that are not on the image border (where the coverage
@@ -42,13 +48,17 @@ Quality flags, one per frame (column ``quality``):
     No ball was found (it left the image, or it is hidden): ``x_px``, ``y_px`` and ``radius_px``
     are NaN.
 ``duplicate``
-    The frame is identical (within ``DUPLICATE_TOLERANCE_GREY``) to the previous frame, as when
-    a recorder repeats frames to fill a nominal rate: its time stamp does not belong to its
-    content, so it is dropped from the trajectory (NaN position).
+    The frame is identical to the previous frame, as when a recorder repeats frames to fill a
+    nominal rate: its time stamp does not belong to its content, so it is dropped from the
+    trajectory (NaN position). Identical means a mean absolute difference of sparse samples within
+    ``DUPLICATE_TOLERANCE_GREY`` (the sensor noise repeats) and no pixel of the whole frame
+    changing by more than the foreground threshold (nothing moved), while the ball was predicted
+    to move (more than ``STILL_BALL_STEP_PX``): a ball at rest in a noise-free video gives
+    identical frames that are true ones.
 
-``ok`` rows are meant for fitting trajectories, and so are ``partial`` rows whose ``centre_se_px``
-and ``fit_rms_px`` are small (:func:`usable_rows`). ``centre_se_px`` and ``fit_rms_px`` are NaN for
-``ok`` rows, whose coverage-weighted centroid is not a fit.
+``ok`` and ``blurred`` rows are meant for fitting trajectories, and so are ``partial`` rows whose
+``centre_se_px`` and ``fit_rms_px`` are small (:func:`usable_rows`). ``centre_se_px`` and
+``fit_rms_px`` are NaN for ``ok`` and ``blurred`` rows, whose coverage-weighted centroid is not a fit.
 
 Ball in the background. A ball that is in view for the whole clip and moves less than a few
 diameters (a close-up of a contact) covers some pixels in more than half of the background
@@ -94,7 +104,10 @@ QUALITY_PARTIAL = "partial"
 QUALITY_OCCLUDED = "occluded"
 QUALITY_LOST = "lost"
 QUALITY_DUPLICATE = "duplicate"
-QUALITIES = (QUALITY_OK, QUALITY_PARTIAL, QUALITY_OCCLUDED, QUALITY_LOST, QUALITY_DUPLICATE)
+QUALITY_BLURRED = "blurred"
+QUALITIES = (QUALITY_OK, QUALITY_BLURRED, QUALITY_PARTIAL, QUALITY_OCCLUDED, QUALITY_LOST, QUALITY_DUPLICATE)
+#: Frames measured cleanly: a lone ball whose centre is its coverage-weighted centroid.
+CLEAN_QUALITIES = (QUALITY_OK, QUALITY_BLURRED)
 COLUMNS = ["frame", "time_s", "x_px", "y_px", "radius_px", "quality", "centre_se_px", "fit_rms_px"]
 
 #: Foreground threshold, in robust noise standard deviations of (frame - background).
@@ -116,6 +129,14 @@ MIN_ELLIPSE_FILL = 0.85
 MAX_FILL_RATIO = 1.3
 #: A blob larger than this multiple of the expected disc area (radius + 1 px) has something attached.
 ATTACHED_AREA_FRACTION = 1.3
+#: A blob that is not a lone disc is a motion-blur streak when the stadium (a disc of its width swept
+#: along the ball's predicted motion) covers it: their intersection over union is at least this, ...
+MIN_STREAK_OVERLAP = 0.9
+#: ... its half-width is within this fraction of the expected radius (plus 1 px) ...
+STREAK_RADIUS_TOLERANCE = 0.15
+#: ... and its sweep is at most this multiple of the predicted travel in a frame interval (plus 2 px):
+#: the exposure is at most a frame interval.
+MAX_STREAK_TRAVEL_RATIO = 1.3
 #: A ball whose measured area is below this fraction of the expected area is partly hidden.
 OCCLUDED_AREA_FRACTION = 0.9
 #: Mean absolute grey-level difference to the previous frame at or below which a frame is a duplicate.
@@ -124,6 +145,9 @@ DUPLICATE_TOLERANCE_GREY = 0.5
 BACKGROUND_SAMPLES = 11
 #: Pixels between the sparse samples of the duplicate test.
 DUPLICATE_STRIDE_PX = 16
+#: A frame identical to the previous one is not a duplicate when the ball is predicted to move less
+#: than this between them, px (a ball at rest in a noise-free video).
+STILL_BALL_STEP_PX = 0.1
 #: Extra margin of the search window, px.
 WINDOW_MARGIN_PX = 6
 #: Radius of the disc cut out of a background sample around a tracked ball, in tracked radii (a
@@ -184,7 +208,7 @@ class BallMeasurement:
     radius_px : float
         Radius, px.
     quality : str
-        One of ``ok``, ``partial``, ``occluded``.
+        One of ``ok``, ``blurred``, ``partial``, ``occluded``.
     area_px2 : float
         Area covered by the ball, px².
     truncated : bool
@@ -423,8 +447,33 @@ def _fit_outline(coverage, points, centre, radius, radius_ref_px):
     return fit_circle_geometric(edge[inlier, 0], edge[inlier, 1], fit[:2], fit[2], fixed)
 
 
+def _is_streak(filled, radius_ref_px, motion_px):
+    """Whether a blob (uint8 mask) is a ball of radius ``radius_ref_px`` blurred along ``motion_px``.
+
+    A ball moving during the exposure draws a stadium: a disc of its radius swept along its motion
+    over at most its travel in a frame interval, ``motion_px`` (dx, dy), px.
+    """
+    travel = math.hypot(*motion_px)
+    if not radius_ref_px or travel == 0.0:
+        return False
+    ux, uy = motion_px[0] / travel, motion_px[1] / travel
+    rows, columns = np.indices(filled.shape)
+    along, across = columns * ux + rows * uy, rows * ux - columns * uy
+    inside = filled.astype(bool)
+    half_width = (np.ptp(across[inside]) + 1.0) / 2.0
+    sweep = np.ptp(along[inside]) + 1.0 - 2.0 * half_width
+    if (abs(half_width - radius_ref_px) > STREAK_RADIUS_TOLERANCE * radius_ref_px + 1.0
+            or sweep > MAX_STREAK_TRAVEL_RATIO * travel + 2.0):
+        return False
+    middle_along = (along[inside].min() + along[inside].max()) / 2.0
+    middle_across = (across[inside].min() + across[inside].max()) / 2.0
+    beyond = np.maximum(np.abs(along - middle_along) - max(sweep, 0.0) / 2.0, 0.0)
+    stadium = np.hypot(beyond, across - middle_across) <= half_width
+    return np.count_nonzero(stadium & inside) >= MIN_STREAK_OVERLAP * np.count_nonzero(stadium | inside)
+
+
 def measure_ball(grey, background, threshold_grey, centre_guess, radius_ref_px=None,
-                 image_edges=(True, True, True, True)):
+                 image_edges=(True, True, True, True), motion_px=None):
     """Sub-pixel centre and radius of the ball in one (window of a) frame.
 
     A pure function of its arguments.
@@ -441,6 +490,10 @@ def measure_ball(grey, background, threshold_grey, centre_guess, radius_ref_px=N
         Expected radius, px; used to reject small blobs and to flag attached or hidden balls.
     image_edges : (bool, bool, bool, bool)
         Whether the window's left, top, right and bottom edges are edges of the image.
+    motion_px : (float, float), optional
+        Predicted displacement (dx, dy) of the ball over one frame interval, px; with
+        ``radius_ref_px``, a blob that is the ball blurred along it (:func:`_is_streak`) is measured
+        as ``blurred``.
 
     Returns
     -------
@@ -488,6 +541,8 @@ def measure_ball(grey, background, threshold_grey, centre_guess, radius_ref_px=N
                 or filled_area < MIN_ELLIPSE_FILL * 4 * math.pi * math.sqrt(major * minor))
     if radius_ref_px:
         attached |= filled_area > ATTACHED_AREA_FRACTION * math.pi * (radius_ref_px + 1.0) ** 2
+    streak = attached and motion_px is not None and _is_streak(filled, radius_ref_px, motion_px)
+    attached &= not streak
     if attached or at_image_edge:
         # the largest inscribed circle: the ball, when what is attached is narrower than the ball
         inscribed = cv2.distanceTransform(filled, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
@@ -559,6 +614,9 @@ def measure_ball(grey, background, threshold_grey, centre_guess, radius_ref_px=N
         return None
     x = float(weight.sum(axis=0) @ np.arange(width, dtype=np.float32)) / area
     y = float(weight.sum(axis=1) @ np.arange(height, dtype=np.float32)) / area
+    if streak:
+        # no pixel is covered for the whole exposure, so the sum of coverage is not the ball's area
+        return BallMeasurement(x, y, radius_ref_px, QUALITY_BLURRED, math.pi * radius_ref_px ** 2, truncated)
     radius = math.sqrt(area / math.pi)
     quality = QUALITY_OK
     if radius_ref_px and area < OCCLUDED_AREA_FRACTION * math.pi * radius_ref_px ** 2:
@@ -656,9 +714,10 @@ class BallTracker:
         return self._radius_ref if self._radii else self.expected_radius_px
 
     def _predict(self):
+        """Predicted centre (x, y), distance from the last found centre, and travel per frame (dx, dy), px."""
         history = [h for h in self._history if self._index - h[0] <= 6]
         if not history:
-            return None, 0.0
+            return None, 0.0, None
         if len(history) >= 3:
             (t0, x0, y0), (t1, x1, y1), (t2, x2, y2) = history[-3:]
             t = self._index
@@ -674,9 +733,10 @@ class BallTracker:
             predicted = history[-1][1:]
         last = history[-1]
         step = math.hypot(predicted[0] - last[1], predicted[1] - last[2])
-        return predicted, step
+        gap = self._index - last[0]
+        return predicted, step, ((predicted[0] - last[1]) / gap, (predicted[1] - last[2]) / gap)
 
-    def _measure_around(self, frame, centre, half_size):
+    def _measure_around(self, frame, centre, half_size, motion_px=None):
         x_c, y_c = centre
         x0 = max(int(math.floor(x_c - half_size)), 0)
         y0 = max(int(math.floor(y_c - half_size)), 0)
@@ -687,13 +747,13 @@ class BallTracker:
         grey = to_grey(frame[y0:y1, x0:x1])
         edges = (x0 == 0, y0 == 0, x1 == self.width, y1 == self.height)
         result = measure_ball(grey, self.background.grey[y0:y1, x0:x1], self.background.threshold_grey,
-                              (x_c - x0, y_c - y0), self.radius_ref_px, edges)
+                              (x_c - x0, y_c - y0), self.radius_ref_px, edges, motion_px)
         if result is None:
             return None
         return BallMeasurement(result.x_px + x0, result.y_px + y0, result.radius_px, result.quality,
                                result.area_px2, result.truncated, result.centre_se_px, result.fit_rms_px)
 
-    def _is_duplicate(self, frame, centre, half_size):
+    def _is_duplicate(self, frame, predicted, predicted_step_px):
         previous = self._previous
         if previous is None or previous.shape != frame.shape:
             return False
@@ -701,16 +761,11 @@ class BallTracker:
         sparse = np.abs(frame[::s, ::s, ...].astype(np.int16) - previous[::s, ::s, ...]).mean()
         if sparse > self.duplicate_tolerance_grey:
             return False
-        if centre is None:
-            return True
-        x0 = max(int(centre[0] - half_size), 0)
-        y0 = max(int(centre[1] - half_size), 0)
-        x1 = min(int(centre[0] + half_size) + 1, self.width)
-        y1 = min(int(centre[1] + half_size) + 1, self.height)
-        if x1 <= x0 or y1 <= y0:
-            return True
-        window = np.abs(frame[y0:y1, x0:x1].astype(np.int16) - previous[y0:y1, x0:x1]).mean()
-        return window <= self.duplicate_tolerance_grey
+        # the sparse samples miss a small ball: nothing in the whole frame may have moved
+        if float(cv2.absdiff(frame, previous).max()) > self.background.threshold_grey:
+            return False
+        # a ball at rest in a noise-free video repeats itself: its frames are true, not repeated
+        return predicted is None or predicted_step_px > STILL_BALL_STEP_PX
 
     def update(self, frame):
         """Measure the ball in the next frame.
@@ -730,19 +785,19 @@ class BallTracker:
         if frame.shape[:2] != (self.height, self.width):
             raise ValueError(f"frame of shape {frame.shape} does not match the background {self.background.grey.shape}")
         self._index += 1
-        predicted, step = self._predict()
+        predicted, step, motion = self._predict()
         radius = self.radius_ref_px or 10.0
         half_size = 1.5 * radius + 2.0 * step + WINDOW_MARGIN_PX
-        duplicate = self._is_duplicate(frame, predicted, half_size)
+        duplicate = self._is_duplicate(frame, predicted, step)
         self._previous = frame
         if duplicate:
             return math.nan, math.nan, math.nan, QUALITY_DUPLICATE, math.nan, math.nan
 
         result = None
         if predicted is not None:
-            result = self._measure_around(frame, predicted, half_size)
+            result = self._measure_around(frame, predicted, half_size, motion)
             if result is not None and result.truncated:
-                result = self._measure_around(frame, (result.x_px, result.y_px), 2.0 * half_size)
+                result = self._measure_around(frame, (result.x_px, result.y_px), 2.0 * half_size, motion)
         if result is None or result.truncated:
             grey = _grey_uint8(frame)
             found = find_ball(to_grey(frame) if grey is None else grey, self.background, self.radius_ref_px)
@@ -852,7 +907,7 @@ def _table(rows, times_s):
 
 
 def usable_rows(table, radius_px=None):
-    """Rows whose centre is good for a trajectory: ``ok``, and ``partial`` with a good circle fit.
+    """Rows whose centre is good for a trajectory: ``ok``, ``blurred``, and ``partial`` with a good circle fit.
 
     Parameters
     ----------
@@ -864,7 +919,7 @@ def usable_rows(table, radius_px=None):
     Returns
     -------
     numpy.ndarray
-        Boolean mask, one per row: ``ok``, or ``partial`` with ``centre_se_px`` ≤
+        Boolean mask, one per row: ``ok``, ``blurred``, or ``partial`` with ``centre_se_px`` ≤
         ``MAX_PARTIAL_CENTRE_SE_PX``, ``fit_rms_px`` ≤ ``MAX_PARTIAL_FIT_RMS_PX`` and a radius
         within ``MAX_PARTIAL_RADIUS_MISMATCH_PX`` of ``radius_px``. Without a radius (no ``ok``
         row and none given) no ``partial`` row is usable.
@@ -876,7 +931,7 @@ def usable_rows(table, radius_px=None):
     good_fit = ((table["centre_se_px"].to_numpy() <= MAX_PARTIAL_CENTRE_SE_PX)
                 & (table["fit_rms_px"].to_numpy() <= MAX_PARTIAL_FIT_RMS_PX)
                 & (np.abs(table["radius_px"].to_numpy() - radius_px) <= MAX_PARTIAL_RADIUS_MISMATCH_PX))
-    return ok | ((quality == QUALITY_PARTIAL) & good_fit)
+    return np.isin(quality, CLEAN_QUALITIES) | ((quality == QUALITY_PARTIAL) & good_fit)
 
 
 def _spread(count, samples):

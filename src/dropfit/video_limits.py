@@ -4,8 +4,8 @@
 noise, motion blur and ball size one at a time around a good 240 fps baseline; its table and chart
 (``benchmarks/video_failure_sweep.csv``, ``.png``) are the evidence for every limit below. Over the
 range where the tracker finds the ball, e stays within 3 × 10⁻⁴ of the generator's and the only
-way to a wrong e is a flight sampled by too few clean frames (low frame rate, or blurred frames near
-the impacts rejected by the tracker). The limits therefore use only what the tracker and the
+way to a wrong e is a flight sampled by too few clean frames (a low frame rate; blurred frames
+near the impacts count as clean since the tracker measures streaks as ``blurred``). The limits therefore use only what the tracker and the
 analysis measure, never the ground truth:
 
 * the tracked ball radius (px) and the fraction of frames measured cleanly, checked on the tracked
@@ -31,7 +31,7 @@ import numpy as np
 
 from .analysis import estimate_noise
 from .errors import InputError
-from .tracking import QUALITY_DUPLICATE, QUALITY_OK
+from .tracking import CLEAN_QUALITIES, QUALITY_DUPLICATE
 
 #: Smallest tracked ball radius, px. Sweep: a ball drawn with radius 1 px is never found and one of
 #: 1.25 px in no clean frame; drawn with 1.5–2 px it is tracked as 2.2–2.3 px (the edge threshold
@@ -42,15 +42,16 @@ MIN_BALL_RADIUS_PX = 2.0
 #: most 3 % of the frames are clean, or fewer than 10 in all.
 MIN_CLEAN_FRACTION = 0.30
 #: Fewest frame intervals a flight around an impact must last (the drop: from its apex, the release,
-#: to touchdown; a bounce: from lift-off to touchdown). Sweep: e₁ was off by 5–8 × 10⁻³ (2–4
-#: standard errors) in 3 of the clips whose fall lasted 11.7–20.8 frame intervals (30–50 frames/s;
-#: in the one examined, the information criterion had taken a drag term that is not there) and
-#: within 1 × 10⁻⁴ in every clip whose fall lasted ≥ 23.5. A high-speed close-up films only the last
-#: milliseconds of a long fall: it is the flight that must be sampled densely, not the clip.
-MIN_FRAME_INTERVALS_PER_FLIGHT = 22
-#: Fewest clean frames in each of the two flights around an impact. Sweep: with 10–15 clean frames
-#: in a fall of ≥ 23.5 frame intervals (60 frames/s, long exposures rejected the streaked frames)
-#: e₁ was within 1 × 10⁻⁴; the 1000 frames/s close-up sees 12 clean frames before its contact and
+#: to touchdown; a bounce: from lift-off to touchdown). Sweep (blurred frames measured): a fall of 6
+#: frame intervals (15 frames/s) gave e₁ off by 3 × 10⁻³ (19 standard errors) in 1 of 2 clips, falls
+#: of 8–12 intervals (20–30 frames/s) were within 8 × 10⁻⁴ but up to 2.2 standard errors, and every
+#: fall of ≥ 15.6 intervals (40 frames/s and up) within 1 × 10⁻⁴ and 1.7 standard errors. It is the
+#: flight that must be sampled densely, not the clip: a high-speed close-up films only the last
+#: milliseconds of a long fall.
+MIN_FRAME_INTERVALS_PER_FLIGHT = 15
+#: Fewest clean frames in each of the two flights around an impact. Sweep (before blurred frames were
+#: measured): 10–15 clean frames in a fall of ≥ 23.5 frame intervals (60 frames/s, long exposures)
+#: gave e₁ within 1 × 10⁻⁴; the 1000 frames/s close-up sees 12 clean frames before its contact and
 #: gives e within 5 × 10⁻⁵ (tests/test_videolog.py).
 MIN_CLEAN_FRAMES_PER_FLIGHT = 10
 
@@ -66,15 +67,15 @@ def recording_measures(table):
     Returns
     -------
     dict
-        ``ball_radius_px`` (median tracked radius of the clean frames, px), ``clean_fraction``
-        (clean frames over the frames, duplicates left out, from the first clean frame to the last:
+        ``ball_radius_px`` (median tracked radius of the clean frames, ``ok`` and ``blurred``, px),
+        ``clean_fraction`` (clean frames over the frames, duplicates left out, from the first clean frame to the last:
         a hand holding the ball before it or an empty scene after it does not count against the
         recording), ``centre_noise_px`` (robust noise of the clean frames' centre rows, px),
         ``travel_px`` (range of those rows, px) and ``noise_to_travel`` (their ratio). Radius,
         noise and travel are NaN when no frame is clean.
     """
     kept = table[table["quality"] != QUALITY_DUPLICATE]
-    is_clean = (kept["quality"] == QUALITY_OK).to_numpy()
+    is_clean = kept["quality"].isin(CLEAN_QUALITIES).to_numpy()
     clean = kept[is_clean]
     rows = clean["y_px"].to_numpy(float)
     span = np.flatnonzero(is_clean)
