@@ -10,7 +10,7 @@ import pytest
 from dropfit.errors import InputError
 from dropfit.synth import simulate_drop
 from dropfit.tracking import (QUALITY_BLURRED, QUALITY_DUPLICATE, QUALITY_LOST, QUALITY_OCCLUDED, QUALITY_OK, QUALITY_PARTIAL,
-                              track_frames, track_video, usable_rows)
+                              TRACKED_CENTRE_CORRELATION, track_frames, track_video, usable_rows)
 from dropfit.video_synth import Camera, FrameRenderer, Scene, default_clips
 
 CLEAN_RMS_TOLERANCE_PX = 0.1  # px, centre error RMS on clean frames
@@ -362,3 +362,26 @@ def test_ball_blurred_longer_than_its_diameter_is_measured(capsys):
     assert errors[blurred].max() <= NOISY_RMS_TOLERANCE_PX
     assert usable_rows(table)[long_streak].all()
     assert not blurred[truth["time_s"].to_numpy() < 0.1].any()  # held still by the hand until 0.1 s
+
+
+CORRELATION_TOLERANCE = 0.1  # dimensionless, lag-1 autocorrelation averaged over 4 clips of ~200 frames
+
+
+def test_tracked_centre_errors_are_as_correlated_as_the_analysis_assumes(tmp_path):
+    """The analysis of a video treats the tracked centre's errors as AR(1) with TRACKED_CENTRE_CORRELATION;
+    measured against the renderer's truth, their lag-1 autocorrelation averages about that."""
+    from dropfit.video_synth import render_video
+
+    truth = simulate_drop(0.8, 0.0335, {"kind": "constant", "e0": 0.75}, mass_kg=0.057, release_time_s=0.05)
+    correlations = []
+    for seed, (fps, px_per_m, width, height) in enumerate([(120.0, 160.0, 48, 200), (240.0, 350.0, 320, 400)] * 2):
+        camera = Camera(width, height, fps, 0.0, px_per_m=px_per_m, image_row_of_floor_px=height - 10.0,
+                        noise_sigma=2.0, quality=90)
+        frames = render_video(truth, camera, Scene(), 1.0, seed, tmp_path / f"clip{seed}.avi")
+        table = track_video(frames.attrs["video_path"])
+        error = np.where(table["quality"] == QUALITY_OK, table["y_px"] - frames["y_px"].to_numpy(), np.nan)
+        error -= np.nanmean(error)
+        pairs = np.isfinite(error[:-1]) & np.isfinite(error[1:])
+        correlations.append(np.corrcoef(error[:-1][pairs], error[1:][pairs])[0, 1])
+    print(f"\n[tracking] lag-1 autocorrelation of centre errors: {np.round(correlations, 3)}")
+    assert np.mean(correlations) == pytest.approx(TRACKED_CENTRE_CORRELATION, abs=CORRELATION_TOLERANCE)

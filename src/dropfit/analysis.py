@@ -353,7 +353,7 @@ def detect_bounces(t, y, source="trajectory"):
 
 def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="auto", contact_height_m=None,
                     source="trajectory", scale_rel_se=0.0, contact_height_se_m=0.0, contact_guard_s=0.0,
-                    nominal_drag_k_per_m=0.0):
+                    nominal_drag_k_per_m=0.0, noise_correlation=0.0):
     """Segment a drop-test trajectory into flights, fit them and measure every impact.
 
     Parameters
@@ -396,6 +396,11 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
         :data:`NOMINAL_DRAG_RELATIVE_SE`. When BIC keeps k from being fitted freely, k is held at this
         prior combined with the free fit's k (inverse-variance weights), and its standard error is
         propagated into every impact quantity. 0 = no drag.
+    noise_correlation : float
+        Lag-1 autocorrelation (dimensionless, 0 ≤ ρ < 1) of the height errors of successive samples,
+        e.g. :data:`dropfit.tracking.TRACKED_CENTRE_CORRELATION` for a video. The fit's covariance,
+        which assumes independent errors, is multiplied by (1 + ρ)/(1 − ρ), the variance factor of
+        an average over AR(1) errors. 0 for a sensor's white noise.
 
     Returns
     -------
@@ -458,7 +463,7 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
                 held_k, held_k_se = _combine_with_prior(result, held_k, held_k_se)
             fit = _refine(t, y, final_bounds, False, g, rival[1].x, contact_height_m, noise, guard_s, held_k) or fit
     return _report(fit, bic, t_all, y_all, noise, g, float(t[release]), source, held_k_se, scale_rel_se,
-                   contact_height_se_m)
+                   contact_height_se_m, noise_correlation)
 
 
 def _combine_with_prior(result, prior_k, prior_se):
@@ -695,35 +700,6 @@ def _covariance(result):
     return sigma2 * np.linalg.pinv(result.jac.T @ result.jac)
 
 
-#: Residual lag-1 autocorrelation counts as real above this many of its standard errors (1/√n).
-AUTOCORRELATION_IN_SE = 2.0
-
-
-def _correlation_inflation(residuals, flight):
-    """Lag-1 autocorrelation ρ of the flights' residuals and the variance factor it calls for.
-
-    The covariance σ²(JᵀJ)⁻¹ assumes independent errors. A tracker's centre errors are not: the
-    pixel grid and the codec's blocks bias neighbouring frames alike (ρ ≈ 0.15 on small synthetic
-    clips, where the intervals then covered only ~90 %). For errors correlated as AR(1) the variance
-    of a mean grows by (1 + ρ)/(1 − ρ); it is applied when ρ exceeds AUTOCORRELATION_IN_SE/√n, so
-    a sensor's white noise (ρ ≈ 0 ± 1/√n) keeps the plain covariance.
-
-    Returns
-    -------
-    (float, float)
-        ρ (dimensionless) and the factor (1 or (1 + ρ)/(1 − ρ)) for the parameter covariance.
-    """
-    same_flight = flight[1:] == flight[:-1]
-    before, after = residuals[:-1][same_flight], residuals[1:][same_flight]
-    norm = np.sqrt(float(before @ before) * float(after @ after))
-    if before.size < 10 or not norm > 0:
-        return 0.0, 1.0
-    lag1 = float(before @ after) / norm
-    if lag1 <= AUTOCORRELATION_IN_SE / np.sqrt(before.size):
-        return lag1, 1.0
-    return lag1, (1.0 + lag1) / (1.0 - lag1)
-
-
 def _set_weights(quantities, result):
     """Weight each impact's meeting height by its inverse variance (weights then held fixed)."""
     if quantities.given_contact_height is not None or quantities.n_impacts == 0:
@@ -756,10 +732,12 @@ def _contact_height_derivative(quantities, theta, step_m=1e-6):
     return (upper - lower) / (2 * step_m)
 
 
-def _report(fit, bic, t_all, y_all, noise, g, release_time, source, held_k_se, scale_rel_se, contact_height_se_m):
+def _report(fit, bic, t_all, y_all, noise, g, release_time, source, held_k_se, scale_rel_se, contact_height_se_m,
+            noise_correlation):
     model, result, counts, quantities, bounds = fit
     theta = result.x
-    lag1, inflation = _correlation_inflation(result.fun, model.flight)
+    # AR(1) errors: the variance of what a fit averages grows by (1 + ρ)/(1 − ρ)
+    inflation = (1.0 + noise_correlation) / (1.0 - noise_correlation)
     cov_theta = inflation * _covariance(result)
     vector = quantities(theta)
     jac = _numerical_jacobian(quantities, theta, model.lower_bounds(theta.size))
@@ -843,8 +821,7 @@ def _report(fit, bic, t_all, y_all, noise, g, release_time, source, held_k_se, s
         "gravity_m_s2": g,
         "n_impacts": n,
         "scale_rel_se": float(scale_rel_se),
-        "residual_lag1_autocorrelation": lag1,
-        "covariance_inflation": inflation,
+        "noise_correlation": float(noise_correlation),
     }
     contact_index = 1 + _IMPACT_COLUMNS.index("t_contact_s") * n
     pair = np.r_[e_index: e_index + n, contact_index: contact_index + n]

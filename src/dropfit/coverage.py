@@ -181,6 +181,7 @@ def video_trial(seed, directory, scenario=None):
     from pathlib import Path
 
     from .video_synth import Camera, Scene, render_video
+    from .tracking import TRACKED_CENTRE_CORRELATION
     from .videolog import trajectory_from_video
 
     spec = dict(VIDEO_SCENARIO, **(scenario or {}))
@@ -199,7 +200,8 @@ def video_trial(seed, directory, scenario=None):
                                            scale_m_per_px=1.0 / spec["px_per_m"])
     finally:
         Path(frames.attrs["video_path"]).unlink()
-    analysis = analyse_bounces(trajectory["time"].values, trajectory["y"].values)
+    analysis = analyse_bounces(trajectory["time"].values, trajectory["y"].values,
+                               noise_correlation=TRACKED_CENTRE_CORRELATION)
     impacts, true_impacts = analysis.impacts, truth.impacts.iloc[: len(analysis.impacts)]
     if np.any(np.abs(impacts["t_touchdown_s"].to_numpy() - true_impacts["t_s"].to_numpy()) > 0.02):
         raise AssertionError(f"analysed touchdowns do not match the truth: {impacts['t_touchdown_s'].tolist()}")

@@ -23,6 +23,7 @@ from .restitution import (ITF_DROP_HEIGHT_M, ITF_REBOUND_MAX_M, ITF_REBOUND_MIN_
                           itf_rebound, itf_verdict, theory_checks)
 from .speed_dependence import fit_speed_dependence, predict_e, prediction_covariance
 from .synth import scenario_recordings, synthesize
+from .tracking import TRACKED_CENTRE_CORRELATION
 from .videolog import is_video, trajectory_from_video
 
 
@@ -94,7 +95,8 @@ def analyse(trajectory_path, impacts_path, flights_path, summary_path, drag="aut
                              source=attrs.get("source", str(trajectory_path)),
                              scale_rel_se=float(attrs.get("scale_rel_se", 0.0)),
                              contact_height_se_m=float(attrs.get("floor_se_m", 0.0)), contact_guard_s=guard,
-                             nominal_drag_k_per_m=nominal_drag(attrs.get("ball_radius_m"), attrs.get("ball_mass_kg")))
+                             nominal_drag_k_per_m=nominal_drag(attrs.get("ball_radius_m"), attrs.get("ball_mass_kg")),
+                             noise_correlation=TRACKED_CENTRE_CORRELATION if "video" in attrs else 0.0)
     if "video" in attrs:  # a video's later bounces may be too briefly filmed to resolve
         result = video_limits.select_resolved_impacts(result, attrs["video"], frame_interval)
     with atomic_output(impacts_path) as tmp:
