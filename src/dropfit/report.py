@@ -156,7 +156,8 @@ def _flight_curves(trajectory, flights, analysis):
     Returns
     -------
     curves : list of (numpy.ndarray, numpy.ndarray)
-        Time (s) and fitted height (m, sensor zero) of each flight on a fine grid.
+        Time (s) and fitted height (m, sensor zero) of each flight on a fine grid, only where there
+        are data (a close-up of one contact does not show the fall it was fitted from).
     residual_t, residual_m : numpy.ndarray
         Times (s) and residuals (m, measured − fitted) of the samples used in the fits.
     """
@@ -164,8 +165,9 @@ def _flight_curves(trajectory, flights, analysis):
     y = trajectory["y"].values
     k, g = analysis["drag_k_per_m"], analysis["gravity_m_s2"]
     curves, residual_t, residual_m = [], [], []
+    measured = t[np.isfinite(y)]
     for row in flights.itertuples(index=False):
-        grid = np.linspace(row.t_start_s, row.t_end_s, 200)
+        grid = np.linspace(max(row.t_start_s, measured.min()), min(row.t_end_s, measured.max()), 200)
         curves.append((grid, flight_height(grid, row.t_apex_s, row.y_apex_m, k, g)))
         inside = (t > row.t_start_s) & (t < row.t_end_s) & np.isfinite(y)
         residual_t.append(t[inside])
@@ -207,7 +209,7 @@ def _figure_png(trajectory, flights, impacts, analysis, fit):
     ax_res.axhline(0.0, color="0.4", lw=0.8)
     ax_res.set_xlabel("time (s)")
     ax_res.set_ylabel("residual (mm)")
-    ax_res.set_title(f"(b) fit residuals (noise {1e3 * analysis['noise_m']:.2f} mm)", loc="left")
+    ax_res.set_title(f"(b) fit residuals (noise {1e3 * analysis['noise_m']:.2g} mm)", loc="left")
 
     e_fit = fit["restitution"]["e"]
     ax_e.errorbar(impacts["v_in_m_s"], impacts["e"], yerr=Z95 * impacts["e_se"], fmt="o", ms=4, capsize=3,
