@@ -117,8 +117,8 @@ def test_flight_spans_are_the_fall_of_the_drop_and_whole_bounces(drop):
 
 
 def test_late_short_flights_are_dropped_with_a_reason_and_the_rest_kept(drop):
-    """At 60 frames/s the flights last 24, 36, 27, 20, 15 … frame intervals: impacts from the 3rd on
-    are dropped (the flight after it lasts fewer than 22)."""
+    """At 60 frames/s the flights last 24, 36, 27, 20, 15, 11 … frame intervals: the impacts from the
+    first whose flight before or after is shorter than the limit on are dropped, the others kept."""
     table = tracked_table(drop, fps=60.0, duration_s=2.6)
     heights = (FLOOR_ROW_PX - table["y_px"].to_numpy()) / PX_PER_M
     analysis = analyse_bounces(table["time_s"].to_numpy(), heights, contact_height_m=BALL_RADIUS_M)
