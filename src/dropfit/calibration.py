@@ -21,9 +21,9 @@ Ruler
 grey-level changes are strong form the ruler; in each such column the ticks are the dark runs of
 the row profile. The ticks are assumed to follow the usual marking, the finest every
 ``tick_m`` and longer ones every 5 and 10 ticks. The columns with the most regularly spaced,
-resolved ticks give the tick rows (a darkness-weighted centroid, sub-pixel); the column with the
-fewest (the longest ticks) checks the count: every longest tick must fall on the same index modulo
-their spacing ratio (10 when the finest ticks are resolved, 2 when only the 5- and 10-tick marks
+resolved ticks give the tick rows (a darkness-weighted centroid, sub-pixel); the zones of columns
+with fewer (longer) ticks check the count: every longer tick must fall on the same index modulo its
+spacing ratio (5 or 10 when the finest ticks are resolved, 2 when only the 5- and 10-tick marks
 are). A straight line of tick row against tick number then gives px per tick and its standard
 error.
 

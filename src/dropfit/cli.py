@@ -41,7 +41,7 @@ def _parser():
     video.add_argument("--seed", type=int, default=0, help="seed of the sensor noise")
 
     measure = stage("measure", "height log (CSV) or video → trajectory (NetCDF, m)")
-    measure.add_argument("log", help="height log CSV, or a video (.avi, .mp4, .mov, .mkv)")
+    measure.add_argument("log", help="height log CSV, or a video (.avi, .mp4, .mov, .mkv, .m4v)")
     measure.add_argument("--out", required=True, help="trajectory NetCDF to write")
     measure.add_argument("--sample-id")
     measure.add_argument("--ball-radius-m", type=float, help="ball radius in m")

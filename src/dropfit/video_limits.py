@@ -3,7 +3,8 @@
 ``benchmarks/video_failure_sweep.py`` renders seeded synthetic clips and sweeps frame rate, sensor
 noise, motion blur and ball size one at a time around a good 240 fps baseline; its table and chart
 (``benchmarks/video_failure_sweep.csv``, ``.png``) are the evidence for every limit below. Over the
-range where the tracker finds the ball, e stays within 3 × 10⁻⁴ of the generator's and the only
+range where the tracker finds the ball, e stays within 3 × 10⁻⁴ of the generator's (7 × 10⁻⁴, within
+its standard error, for a ball drawn with radius 1.5 px) and the only
 way to a wrong e is a flight sampled by too few clean frames (a low frame rate; blurred frames
 near the impacts count as clean since the tracker measures streaks as ``blurred``). The limits therefore use only what the tracker and the
 analysis measure, never the ground truth:

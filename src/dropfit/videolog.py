@@ -7,7 +7,8 @@ quadratic drag included, over g) and the ball's known diameter (its tracked radi
 its radius in m). The one used is the first available in the precedence given > ruler > gravity >
 diameter (an order by accuracy: see :mod:`dropfit.calibration`); every other one is stored with its
 disagreement relative to it. The chosen scale's relative standard error (``scale_rel_se``; 0 for a
-given scale) goes with the trajectory, and the analysis adds it to the standard errors of heights.
+given scale) goes with the trajectory, and the analysis adds its effect on every impact quantity
+(heights, and through the fitted drag also e, flight times and their ratios) to their covariance.
 
 Time: a slow-motion file's container rate may be a playback rate. With a scale that does not
 come from gravity, the flights' acceleration in the file's time gives the capture rate, snapped to a
