@@ -372,8 +372,7 @@ def _section_drag(fit):
         ("BIC, no drag", _num(drag.get("bic_no_drag"), ".1f")),
         ("BIC, quadratic drag", _num(drag.get("bic_quadratic_drag"), ".1f")),
         ("Why", _text(drag.get("why"))),
-        ("Note", _text(drag.get("note"))),
-    ])
+    ] + ([("Note", _text(drag["note"]))] if drag.get("note") else []))
 
 
 def _section_theory(fit):
