@@ -60,7 +60,6 @@ whose tracker flagged streaks longer than the ball ``occluded``, had 3 clips wit
 from __future__ import annotations
 
 import argparse
-import csv
 import math
 import sys
 import tempfile
