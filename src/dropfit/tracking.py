@@ -1006,7 +1006,7 @@ def _read_samples(capture, indices):
     return samples
 
 
-def _video_samples(path, frame_count, samples):
+def video_samples(path, frame_count, samples):
     """Grey frames spread over a video file and their indices: by seeking (cheap for MJPG AVI)."""
     if frame_count >= 1:
         indices = _spread(int(frame_count), samples)
@@ -1129,7 +1129,7 @@ def track_video(path, capture_fps=None, expected_radius_px=None, *, background_s
     reader = _FrameReader(capture)
     reader.start()
     try:
-        indices, samples = _video_samples(path, frame_count, background_samples)
+        indices, samples = video_samples(path, frame_count, background_samples)
         if not samples or samples[0].shape[:2] != first.shape[:2]:
             raise InputError(f"{path}: the frames could not be decoded consistently (corrupt video)")
         background = estimate_background(samples)

@@ -70,17 +70,12 @@ def video_background(path, samples=7):
     """
     import cv2
 
-    from .tracking import estimate_background
+    from .tracking import estimate_background, video_samples
 
     capture = cv2.VideoCapture(str(path))
     count = int(capture.get(cv2.CAP_PROP_FRAME_COUNT))
-    frames = []
-    for index in np.linspace(0, max(count - 1, 0), samples).astype(int):
-        capture.set(cv2.CAP_PROP_POS_FRAMES, int(index))
-        ok, frame = capture.read()
-        if ok:
-            frames.append(frame)
     capture.release()
+    _, frames = video_samples(path, count, samples)
     return estimate_background(frames).grey if frames else None
 
 
@@ -157,7 +152,8 @@ def trajectory_from_video(path, ball_radius_m=None, scale_m_per_px=None, capture
     radius_px = table["radius_px"].to_numpy()[usable]
     extra = dict(attrs or {})
     extra.update(video=str(path), frames=int(len(table)), frames_usable=int(np.count_nonzero(usable)))
-    background = video_background(path)
+    # the ruler and the floor are read from the background; neither needed, no second read of the file
+    background = video_background(path) if ruler_tick_m or extra.get("floor_m") is None else None
     scales = _independent_scales(background, radius_px, ball_radius_m, scale_m_per_px, ruler_tick_m, extra)
     time = _capture_time(table, rows, scales, capture_fps, gravity_m_s2, extra)
     if extra["capture_fps_source"] == _RAW_RATE_SOURCE:
