@@ -81,15 +81,12 @@ class RulerCalibration:
     ticks_per_step : int
         Finest ticks between two fitted ticks (1 if the finest ticks are resolved, 5 if only the
         5- and 10-tick marks are).
-    columns_px : tuple of int
-        First and last image column of the ruler.
     """
 
     scale_m_per_px: float
     scale_se_m_per_px: float
     n_ticks: int
     ticks_per_step: int
-    columns_px: tuple
 
 
 def _dark_runs(profile):
@@ -221,7 +218,7 @@ def ruler_scale(grey, tick_m):
     covariance = (residual @ residual / dof) * np.linalg.inv(design.T @ design)
     px_per_tick, px_per_tick_se = abs(float(coef[1])), float(np.sqrt(covariance[1, 1]))
     scale = tick_m / px_per_tick
-    result = RulerCalibration(scale, scale * px_per_tick_se / px_per_tick, int(base.size), per_step, (first, last))
+    result = RulerCalibration(scale, scale * px_per_tick_se / px_per_tick, int(base.size), per_step)
     return result, (f"ruler in columns {first}-{last} px: {base.size} ticks {per_step} apart, count checked "
                     f"against the longer ticks (every {', '.join(str(r) for r in sorted(set(ratios)))})")
 

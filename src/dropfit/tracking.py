@@ -90,7 +90,7 @@ import math
 import queue
 import threading
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import cv2
@@ -105,7 +105,6 @@ QUALITY_OCCLUDED = "occluded"
 QUALITY_LOST = "lost"
 QUALITY_DUPLICATE = "duplicate"
 QUALITY_BLURRED = "blurred"
-QUALITIES = (QUALITY_OK, QUALITY_BLURRED, QUALITY_PARTIAL, QUALITY_OCCLUDED, QUALITY_LOST, QUALITY_DUPLICATE)
 #: Frames measured cleanly: a lone ball whose centre is its coverage-weighted centroid.
 CLEAN_QUALITIES = (QUALITY_OK, QUALITY_BLURRED)
 COLUMNS = ["frame", "time_s", "x_px", "y_px", "radius_px", "quality", "centre_se_px", "fit_rms_px"]
@@ -215,8 +214,6 @@ class BallMeasurement:
         Radius, px.
     quality : str
         One of ``ok``, ``blurred``, ``partial``, ``occluded``.
-    area_px2 : float
-        Area covered by the ball, px².
     truncated : bool
         The blob reaches an edge of the measured window that is not an image edge: the window was
         too small, measure again in a larger one.
@@ -230,7 +227,6 @@ class BallMeasurement:
     y_px: float
     radius_px: float
     quality: str
-    area_px2: float
     truncated: bool = False
     centre_se_px: float = math.nan
     fit_rms_px: float = math.nan
@@ -607,7 +603,7 @@ def measure_ball(grey, background, threshold_grey, centre_guess, radius_ref_px=N
         crosses = (left and cx - r < -0.5, top and cy - r < -0.5,
                    right and cx + r > width - 0.5, bottom and cy + r > height - 0.5)
         quality = QUALITY_PARTIAL if (any(crosses) or not attached) else QUALITY_OCCLUDED
-        return BallMeasurement(float(cx), float(cy), float(r), quality, math.pi * r * r, truncated and not attached,
+        return BallMeasurement(float(cx), float(cy), float(r), quality, truncated and not attached,
                                centre_se, fit_rms)
 
     in_region = region.astype(bool)
@@ -622,12 +618,12 @@ def measure_ball(grey, background, threshold_grey, centre_guess, radius_ref_px=N
     y = float(weight.sum(axis=1) @ np.arange(height, dtype=np.float32)) / area
     if streak:
         # no pixel is covered for the whole exposure, so the sum of coverage is not the ball's area
-        return BallMeasurement(x, y, radius_ref_px, QUALITY_BLURRED, math.pi * radius_ref_px ** 2, truncated)
+        return BallMeasurement(x, y, radius_ref_px, QUALITY_BLURRED, truncated)
     radius = math.sqrt(area / math.pi)
     quality = QUALITY_OK
     if radius_ref_px and area < OCCLUDED_AREA_FRACTION * math.pi * radius_ref_px ** 2:
         quality = QUALITY_OCCLUDED
-    return BallMeasurement(x, y, radius, quality, area, truncated)
+    return BallMeasurement(x, y, radius, quality, truncated)
 
 
 def find_ball(grey, background, expected_radius_px=None):
@@ -698,16 +694,12 @@ class BallTracker:
         The static scene.
     expected_radius_px : float, optional
         Expected ball radius, px; learnt from the first ``ok`` frames when not given.
-    duplicate_tolerance_grey : float
-        Mean absolute difference to the previous frame, grey levels, at or below which a frame is
-        a duplicate.
     """
 
-    def __init__(self, background, expected_radius_px=None, duplicate_tolerance_grey=DUPLICATE_TOLERANCE_GREY):
+    def __init__(self, background, expected_radius_px=None):
         self.background = background
         self.height, self.width = background.grey.shape
         self.expected_radius_px = expected_radius_px
-        self.duplicate_tolerance_grey = duplicate_tolerance_grey
         self._radii = []
         self._radius_ref = None
         self._history = []  # (frame index, x, y) of the last found balls
@@ -756,8 +748,7 @@ class BallTracker:
                               (x_c - x0, y_c - y0), self.radius_ref_px, edges, motion_px)
         if result is None:
             return None
-        return BallMeasurement(result.x_px + x0, result.y_px + y0, result.radius_px, result.quality,
-                               result.area_px2, result.truncated, result.centre_se_px, result.fit_rms_px)
+        return replace(result, x_px=result.x_px + x0, y_px=result.y_px + y0)
 
     def _is_duplicate(self, frame, predicted, predicted_step_px):
         previous = self._previous
@@ -765,7 +756,7 @@ class BallTracker:
             return False
         s = DUPLICATE_STRIDE_PX
         sparse = np.abs(frame[::s, ::s, ...].astype(np.int16) - previous[::s, ::s, ...]).mean()
-        if sparse > self.duplicate_tolerance_grey:
+        if sparse > DUPLICATE_TOLERANCE_GREY:
             return False
         # the sparse samples miss a small ball: nothing in the whole frame may have moved
         if float(cv2.absdiff(frame, previous).max()) > self.background.threshold_grey:
@@ -828,9 +819,9 @@ def _found_or_raise(table, source):
 
 
 def _run(frames, background, expected_radius_px):
+    """The tracker's rows for ``frames`` (an iterable of images) against ``background``."""
     tracker = BallTracker(background, expected_radius_px)
-    rows = [tracker.update(frame) for frame in frames]
-    return rows
+    return [tracker.update(frame) for frame in frames]
 
 
 def background_without_ball(samples, balls, background):
@@ -1044,8 +1035,7 @@ def _track_decoded(path, background, expected_radius_px):
     reader = _FrameReader(capture)
     reader.start()
     try:
-        tracker = BallTracker(background, expected_radius_px)
-        return [tracker.update(frame) for frame, _ in reader]
+        return _run((frame for frame, _ in reader), background, expected_radius_px)
     finally:
         reader.close()
         capture.release()
