@@ -341,6 +341,13 @@ def linear_vibration_restitution(damping_ratio):
     return float(np.exp(-damping_ratio * np.pi / np.sqrt(1.0 - damping_ratio**2)))
 
 
+def linear_vibration_damping_ratio(e):
+    """ζ of a spring–damper that may also pull, for a coefficient of restitution e (the inverse of
+    :func:`linear_vibration_restitution`; dimensionless)."""
+    log_e = np.log(e)
+    return -log_e / np.sqrt(np.pi**2 + log_e**2)
+
+
 def damping_ratio(stiffness_n_m, damping_n_s_m, mass_kg):
     """ζ = c / (2 √(k m)) (dimensionless)."""
     return damping_n_s_m / (2.0 * np.sqrt(stiffness_n_m * mass_kg))
@@ -356,8 +363,7 @@ def calibrate_damping(mass_kg, stiffness_n_m, impact_speed_m_s, target_e, gravit
         return linear_restitution(LinearContact(stiffness_n_m, c), mass_kg, impact_speed_m_s, gravity_m_s2)[0] - target_e
 
     critical = 2.0 * np.sqrt(stiffness_n_m * mass_kg)
-    log_e = np.log(target_e)
-    guess = critical * -log_e / np.sqrt(np.pi**2 + log_e**2)
+    guess = critical * linear_vibration_damping_ratio(target_e)
     low, high = 0.5 * guess, 2.0 * guess
     while excess(low) < 0 and low > 1e-9 * critical:
         low *= 0.5
@@ -372,8 +378,7 @@ def linear_from_measurements(mass_kg, impact_speed_m_s, e, contact_time_s, gravi
     Starts from linear vibration theory (ζ from e, ω from the contact time ≈ π/ω_d) and solves the
     exact unilateral model, gravity included.
     """
-    log_e = np.log(e)
-    zeta = -log_e / np.sqrt(np.pi**2 + log_e**2)
+    zeta = linear_vibration_damping_ratio(e)
     omega = np.pi / (contact_time_s * np.sqrt(1 - zeta**2))
     k0 = mass_kg * omega**2
     start = np.log([k0, 2 * zeta * np.sqrt(k0 * mass_kg)])
