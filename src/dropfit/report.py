@@ -134,6 +134,23 @@ def _table(headers, rows):
     return f"<table>\n<tr>{head}</tr>\n{body}</table>"
 
 
+def _png_img(png, alt):
+    """``<img>`` element with the PNG bytes embedded as base64 (``alt`` is plain text)."""
+    return f'<img alt="{escape(alt)}" src="data:image/png;base64,{base64.b64encode(png).decode("ascii")}">'
+
+
+def _html_page(title, intro_html, body_html):
+    """A self-contained HTML page: ``title`` (plain text) as title and heading, then the intro and body."""
+    return (f"<!doctype html>\n<html lang='en'>\n<head>\n<meta charset='utf-8'>\n"
+            f"<title>{escape(title)}</title>\n<style>{_CSS}</style>\n</head>\n<body>\n"
+            f"<h1>{escape(title)}</h1>\n{intro_html}\n{body_html}\n</body>\n</html>\n")
+
+
+def _sections_html(sections):
+    """``<h2>`` headed sections from (plain-text title, HTML content) pairs."""
+    return "\n".join(f"<h2>{escape(title)}</h2>\n{content}" for title, content in sections)
+
+
 def _definitions(items):
     """HTML definition list from (plain-text term, already-escaped HTML description) pairs."""
     return "<dl>\n" + "".join(f"<dt>{escape(term)}</dt><dd>{description}</dd>\n"
@@ -307,10 +324,9 @@ def _video_frame_html(trajectory):
     cv2.line(frame, (20, 30), (20 + round(bar_px), 30), red, 3)
     cv2.putText(frame, "10 cm", (20, 22), cv2.FONT_HERSHEY_SIMPLEX, 0.6, red, 2, cv2.LINE_AA)
     ok, png = cv2.imencode(".png", frame)
-    image = base64.b64encode(png.tobytes()).decode("ascii")
     return (f"<p>Frame {index} at {float(trajectory['time'].values[index]):.4f} s: tracked ball (green), floor "
             f"(red line), 10 cm at the calibrated scale {1e3 * scale:.4f} mm/px (red bar).</p>\n"
-            f'<img alt="video frame with the tracked ball" src="data:image/png;base64,{image}">')
+            + _png_img(png.tobytes(), "video frame with the tracked ball"))
 
 
 def _section_result(fit):
@@ -404,14 +420,13 @@ def _section_contact(fit, impacts):
     model = fit.get("contact_model")
     if not model:
         return table + "<p>No contact model fitted: the ball's mass is not known.</p>"
-    image = base64.b64encode(_contact_png(model)).decode("ascii")
     return table + "<h3>Contact model</h3>\n" + _definitions([
         ("Model", _text(model["model"])),
         ("k", escape(_estimate(model["stiffness_n_m"], "N/m"))),
         ("c", escape(_estimate(model["damping_n_s_m"], "N s/m"))),
         ("Impacts used", _text(model["n_impacts"])),
         ("How", _text(model["why"])),
-    ]) + f'\n<img alt="force and penetration of the fitted contact" src="data:image/png;base64,{image}">'
+    ]) + "\n" + _png_img(_contact_png(model), "force and penetration of the fitted contact")
 
 
 def _contact_png(model):
@@ -471,7 +486,6 @@ def recording_report_html(trajectory, flights, impacts, fit, png):
         The HTML page.
     """
     sample_id = fit.get("sample_id") or trajectory.attrs.get("sample_id") or ""
-    image = base64.b64encode(png).decode("ascii")
     sections = [
         ("Recording", _section_recording(fit) + _video_frame_html(trajectory)),
         ("Result", _section_result(fit)),
@@ -481,15 +495,12 @@ def recording_report_html(trajectory, flights, impacts, fit, png):
         ("Theory checks", _section_theory(fit)),
         ("Contact time", _section_contact(fit, impacts)),
         ("Impacts table", _section_impacts(impacts)),
-        ("Figure", f'<img alt="dropfit figure for {escape(str(sample_id))}" src="data:image/png;base64,{image}">'),
+        ("Figure", _png_img(png, f"dropfit figure for {sample_id}")),
     ]
-    body = "\n".join(f"<h2>{escape(title)}</h2>\n{content}" for title, content in sections)
-    return (f"<!doctype html>\n<html lang='en'>\n<head>\n<meta charset='utf-8'>\n"
-            f"<title>dropfit report: {escape(str(sample_id))}</title>\n<style>{_CSS}</style>\n</head>\n<body>\n"
-            f"<h1>dropfit report: {escape(str(sample_id))}</h1>\n"
-            f"<p>Heights are of the ball centre above the contact height "
-            f"({escape(_estimate(fit.get('contact_height_m'), 'm'))} above the sensor zero); "
-            f"{len(flights)} flights fitted.</p>\n{body}\n</body>\n</html>\n")
+    return _html_page(f"dropfit report: {sample_id}",
+                      f"<p>Heights are of the ball centre above the contact height "
+                      f"({escape(_estimate(fit.get('contact_height_m'), 'm'))} above the sensor zero); "
+                      f"{len(flights)} flights fitted.</p>", _sections_html(sections))
 
 
 def write_recording_report(trajectory, flights, impacts, analysis, fit, html_path, figure_path):
@@ -593,11 +604,9 @@ def batch_report_html(table):
         row_class = ' class="failed"' if is_failed else ""
         body.append(f"<tr{row_class}>{''.join(cells)}</tr>")
     rows = "\n".join(body)
-    return (f"<!doctype html>\n<html lang='en'>\n<head>\n<meta charset='utf-8'>\n"
-            f"<title>dropfit batch summary</title>\n<style>{_CSS}</style>\n</head>\n<body>\n"
-            f"<h1>dropfit batch summary</h1>\n"
-            f"<p>{len(table)} recordings: {int((~failed).sum())} analysed, {int(failed.sum())} failed.</p>\n"
-            f"<table>\n<tr>{head}</tr>\n{rows}\n</table>\n</body>\n</html>\n")
+    return _html_page("dropfit batch summary",
+                      f"<p>{len(table)} recordings: {int((~failed).sum())} analysed, {int(failed.sum())} failed.</p>",
+                      f"<table>\n<tr>{head}</tr>\n{rows}\n</table>")
 
 
 # --- batch QC report ----------------------------------------------------------------------------
@@ -767,8 +776,7 @@ def qc_report_html(batch, recordings, balls, statistics, failed, window, png):
     str
         The HTML page.
     """
-    chart = (f'<img alt="control chart of the rebound heights of batch {escape(batch)}" '
-             f'src="data:image/png;base64,{base64.b64encode(png).decode("ascii")}">')
+    chart = _png_img(png, f"control chart of the rebound heights of batch {batch}")
     sections = [
         ("Batch summary", _qc_summary(statistics, window)),
         ("Control chart", chart),
@@ -779,10 +787,7 @@ def qc_report_html(batch, recordings, balls, statistics, failed, window, png):
         ("Drops", _qc_drops_table(recordings)),
         ("Failed recordings", _qc_failed_list(failed)),
     ]
-    body = "\n".join(f"<h2>{escape(title)}</h2>\n{content}" for title, content in sections)
     n_failed = len(failed)
-    return (f"<!doctype html>\n<html lang='en'>\n<head>\n<meta charset='utf-8'>\n"
-            f"<title>dropfit batch QC: {escape(batch)}</title>\n<style>{_CSS}</style>\n</head>\n<body>\n"
-            f"<h1>dropfit batch QC: {escape(batch)}</h1>\n"
-            f"<p>{len(recordings)} recordings of {len(balls)} balls: {len(recordings) - n_failed} analysed, "
-            f"{n_failed} failed.</p>\n{body}\n</body>\n</html>\n")
+    return _html_page(f"dropfit batch QC: {batch}",
+                      f"<p>{len(recordings)} recordings of {len(balls)} balls: {len(recordings) - n_failed} "
+                      f"analysed, {n_failed} failed.</p>", _sections_html(sections))
