@@ -72,9 +72,7 @@ def _parser():
     fit.add_argument("--impacts", required=True)
     fit.add_argument("--out", required=True)
     fit.add_argument("--ball-type")
-    fit.add_argument("--itf-drop-height-m", type=float, default=ITF_DROP_HEIGHT_M)
-    fit.add_argument("--itf-rebound-min-m", type=float, default=ITF_REBOUND_MIN_M)
-    fit.add_argument("--itf-rebound-max-m", type=float, default=ITF_REBOUND_MAX_M)
+    _add_itf_window(fit)
     fit.add_argument("--itf-drop-height-tolerance-m", type=float, default=0.02)
 
     report = stage("report", "per-recording HTML report and PNG figure")
@@ -93,10 +91,15 @@ def _parser():
     qc.add_argument("--html", required=True, help="QC report to write (HTML)")
     qc.add_argument("--figure", required=True, help="control chart to write (PNG)")
     qc.add_argument("--csv", required=True, help="per-ball table to write (CSV, heights in m)")
-    qc.add_argument("--itf-drop-height-m", type=float, default=ITF_DROP_HEIGHT_M)
-    qc.add_argument("--itf-rebound-min-m", type=float, default=ITF_REBOUND_MIN_M)
-    qc.add_argument("--itf-rebound-max-m", type=float, default=ITF_REBOUND_MAX_M)
+    _add_itf_window(qc)
     return parser
+
+
+def _add_itf_window(parser):
+    """The ITF drop height and rebound window options (m), shared by ``fit`` and ``qc``."""
+    parser.add_argument("--itf-drop-height-m", type=float, default=ITF_DROP_HEIGHT_M)
+    parser.add_argument("--itf-rebound-min-m", type=float, default=ITF_REBOUND_MIN_M)
+    parser.add_argument("--itf-rebound-max-m", type=float, default=ITF_REBOUND_MAX_M)
 
 
 def _positive(text):
