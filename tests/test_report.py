@@ -85,6 +85,19 @@ def test_summary_stage_reads_failure_records(run, tmp_path):
     assert "bad log" in (tmp_path / "summary.html").read_text(encoding="utf-8")
 
 
+@pytest.mark.parametrize("content", ["{}", "[1, 2]"])
+def test_summary_stage_lists_json_that_is_no_fit_result_as_failed(run, tmp_path, content):
+    """Valid JSON that is not a fit result (a wrong file on the command line) is a failed row with one
+    line naming the file, not a traceback."""
+    stray = tmp_path / "stray" / "fit.json"
+    stray.parent.mkdir()
+    stray.write_text(content, encoding="utf-8")
+    stages.summary([run["fit.json"], stray], tmp_path / "summary.csv", tmp_path / "summary.html")
+    table = pd.read_csv(tmp_path / "summary.csv")
+    assert list(table["status"]) == ["ok", "failed"]
+    assert table.loc[1, "error"] == f"{stray}: not a dropfit fit result (no 'restitution' section)"
+
+
 def test_qc_stage_groups_drops_by_ball(run, tmp_path):
     """Three drops of ball A (rebounds 1.40, 1.41, 1.42 m) and a failed fourth: the per-ball mean, the
     Student-t interval, the verdict, the chart and the failed recording with its reason."""

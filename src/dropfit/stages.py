@@ -314,11 +314,11 @@ def _read_fits(fit_paths):
     for path in fit_paths:
         try:
             data = read_json(path)
+            if not (isinstance(data, dict) and "restitution" in data):
+                raise InputError(f"{path}: not a dropfit fit result (no 'restitution' section)")
         except InputError as error:  # a failure record, or a file that is not a fit result
-            data = {"status": "failed", "error": str(error)}
+            data = {"status": "failed", "error": str(error), "sample_id": Path(path).parent.name}
         data.setdefault("sample_id", Path(path).parent.name)
-        if data.get("status") == "failed":
-            data["sample_id"] = Path(path).parent.name
         rows.append(data)
     return rows
 
