@@ -312,13 +312,13 @@ def test_root_searches_grow_linearly_with_the_impacts(tennis_truth):
     again for each parameter moved needed twice as many per impact for 10."""
     from unittest import mock
 
-    from dropfit import analysis
+    from dropfit.analysis import impacts
 
     log = sensor_log(tennis_truth, 0)
     per_impact = []
     for end_s in (4.0, np.inf):
         part = log["time_s"] <= end_s
-        with mock.patch.object(analysis, "_meeting_height", wraps=analysis._meeting_height) as root_search:
+        with mock.patch.object(impacts, "meeting_height", wraps=impacts.meeting_height) as root_search:
             result = analyse_bounces(log["time_s"][part], log["y_m"][part])
         assert result.summary["drag_model"] == "quadratic"  # the drag model is the one with root searches
         per_impact.append(root_search.call_count / result.summary["n_impacts"])

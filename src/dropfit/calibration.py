@@ -42,6 +42,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .numerics import linear_fit, robust_sigma
+
 #: Scale sources in the order in which they are preferred.
 SCALE_PRECEDENCE = ("given", "ruler", "gravity", "diameter")
 #: A column belongs to the ruler if its mean |vertical grey-level step| is this many times the image median.
@@ -125,7 +127,7 @@ def _regular_ticks(profile):
         return None
     steps = np.diff(ticks)
     spacing = float(np.median(steps))
-    spread = 1.4826 * float(np.median(np.abs(steps - spacing)))
+    spread = robust_sigma(steps, centre=spacing)
     if spacing < MIN_TICK_SPACING_PX or spread > MAX_TICK_SPACING_SPREAD * spacing:
         return None
     clearance = 0.5 * float(np.median(lengths)) + 1.5
@@ -212,10 +214,7 @@ def ruler_scale(grey, tick_m):
     per_step = _TICKS_PER_STEP[ratio]
     index = np.rint((base - base[0]) / float(np.median(np.diff(base))))
     design = np.column_stack([np.ones_like(index), index * per_step])
-    coef, *_ = np.linalg.lstsq(design, base, rcond=None)
-    residual = base - design @ coef
-    dof = max(base.size - 2, 1)
-    covariance = (residual @ residual / dof) * np.linalg.inv(design.T @ design)
+    coef, covariance = linear_fit(design, base)
     px_per_tick, px_per_tick_se = abs(float(coef[1])), float(np.sqrt(covariance[1, 1]))
     scale = tick_m / px_per_tick
     result = RulerCalibration(scale, scale * px_per_tick_se / px_per_tick, int(base.size), per_step)

@@ -19,6 +19,7 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.optimize import brentq, least_squares
 
+from .numerics import jacobian, propagate
 from .physics import STANDARD_GRAVITY_M_S2
 from .restitution import weighted_fit
 
@@ -445,10 +446,10 @@ def fit_linear_contact(mass_kg, impact_speed_m_s, e, contact_time_s, covariance,
     jac = np.zeros((2 * n, 2 * n))
     for i, (v0, ei, tc) in enumerate(zip(impact_speed_m_s, e, contact_time_s)):
         params[i] = linear_from_measurements(mass_kg, v0, ei, tc, gravity_m_s2)
-        for j, (step, shifted) in enumerate(((1e-6, (ei + 1e-6, tc)), (1e-6 * tc, (ei, tc * (1 + 1e-6))))):
-            jac[[i, n + i], j * n + i] = (np.array(linear_from_measurements(mass_kg, v0, *shifted, gravity_m_s2))
-                                          - params[i]) / step
-    parameter_covariance = jac @ np.asarray(covariance, dtype=float) @ jac.T
+        inversion = jacobian(lambda x: np.array(linear_from_measurements(mass_kg, v0, x[0], x[1], gravity_m_s2)),
+                             np.array([ei, tc]), absolute_step=1e-9)
+        jac[np.ix_([i, n + i], [i, n + i])] = inversion
+    parameter_covariance = propagate(jac, covariance)
     se = np.sqrt(np.clip(np.diag(parameter_covariance), 0.0, None))
     combined = {"per_impact": [{"impact_speed_m_s": float(v0), "stiffness_n_m": (float(params[i, 0]), float(se[i])),
                                 "damping_n_s_m": (float(params[i, 1]), float(se[n + i]))}

@@ -14,7 +14,7 @@ import copy
 import numpy as np
 import pandas as pd
 
-from .analysis import NOMINAL_DRAG_RELATIVE_SE, _se_name, analyse_bounces
+from .analysis import NOMINAL_DRAG_RELATIVE_SE, analyse_bounces, se_column_name
 from .physics import SPHERE_DRAG_COEFFICIENT
 from .restitution import ITF_DROP_HEIGHT_M, Z95
 from .stages import analysis_summary, fit_result, nominal_drag
@@ -104,7 +104,7 @@ def _pairs(scenario, truth, analysis, fitted):
     rows = []
     for column, true_column in (("e", "e"), ("v_in_m_s", "v_in_m_s"), ("v_out_m_s", "v_out_m_s"),
                                 ("h_after_m", "rebound_height_m")):
-        rows += [(column, v, s, t) for v, s, t in zip(impacts[column], impacts[_se_name(column)], true_impacts[true_column])]
+        rows += [(column, v, s, t) for v, s, t in zip(impacts[column], impacts[se_column_name(column)], true_impacts[true_column])]
     resolvable = impacts["contact_resolvable"].to_numpy()
     rows += [("t_contact_s", 1e-3 * v, 1e-3 * s, t) for v, s, t, ok in zip(
         impacts["t_contact_ms"], impacts["t_contact_se_ms"], true_impacts["contact_time_s"], resolvable) if ok]

@@ -21,9 +21,12 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from .analysis import (MIN_SAMPLES_PER_FLIGHT, _last_flight_end, _meeting_height, _numerical_jacobian,
-                       _parabola_start, analyse_bounces, detect_bounces)
+from .analysis import MIN_SAMPLES_PER_FLIGHT, analyse_bounces, detect_bounces
+from .analysis.flights import known_g_parabola
+from .analysis.impacts import meeting_height
+from .analysis.segment import last_flight_end
 from .errors import InputError
+from .numerics import jacobian
 from .physics import STANDARD_GRAVITY_M_S2
 
 def _bounce_samples(time_s, height_m, source):
@@ -41,7 +44,7 @@ def _flight_slices(y, release, minima, noise):
     The lowest sample of each bounce belongs to neither neighbouring flight: it may lie on either
     side of the impact.
     """
-    edges = np.concatenate([[release - 1], minima, [_last_flight_end(y, minima[-1], noise)]])
+    edges = np.concatenate([[release - 1], minima, [last_flight_end(y, minima[-1], noise)]])
     return [slice(start + 1, stop) for start, stop in zip(edges[:-1], edges[1:])]
 
 
@@ -164,15 +167,9 @@ def parabola_fit(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, contact_h
         tf, yf = t[flight], y[flight]
         if tf.size < MIN_SAMPLES_PER_FLIGHT:
             break
-        centre = float(np.mean(tf))
-        y_apex, t_apex = _parabola_start(tf - centre, yf, g)
-        residual = yf - (y_apex - 0.5 * g * (tf - centre - t_apex) ** 2)
-        sigma2 = float(residual @ residual) / max(tf.size - 2, 1)
-        design = np.column_stack([np.ones_like(tf), tf - centre])
-        # parameters (y_apex, t_apex) are a smooth map of (a0, a1): carry the covariance through it
-        to_apex = np.array([[1.0, t_apex], [0.0, 1.0 / g]])
-        covariances.append(to_apex @ (sigma2 * np.linalg.inv(design.T @ design)) @ to_apex.T)
-        apexes.append((y_apex, t_apex + centre))
+        y_apex, t_apex, covariance = known_g_parabola(tf, yf, g)
+        covariances.append(covariance)
+        apexes.append((y_apex, t_apex))
     if len(apexes) < 2:
         raise InputError(f"{source}: no bounce with at least {MIN_SAMPLES_PER_FLIGHT} samples in the flights "
                          f"before and after it")
@@ -180,7 +177,7 @@ def parabola_fit(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, contact_h
     def impact(theta):
         """(touchdown time in s, e) of one impact from θ = (y_apex, t_apex) before and after it."""
         y_before, t_before, y_after, t_after = theta
-        contact = (_meeting_height(y_before, t_before, y_after, t_after, 0.0, g)
+        contact = (meeting_height(y_before, t_before, y_after, t_after, 0.0, g)
                    if contact_height_m is None else float(contact_height_m))
         with np.errstate(invalid="ignore"):
             return np.array([t_before + np.sqrt(2.0 * (y_before - contact) / g),
@@ -192,7 +189,7 @@ def parabola_fit(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, contact_h
         covariance = np.zeros((4, 4))
         covariance[:2, :2], covariance[2:, 2:] = cov_before, cov_after
         value = impact(theta)
-        gradient = _numerical_jacobian(lambda th: impact(th)[1:], theta, np.full(4, -np.inf))[0]
+        gradient = jacobian(lambda th: impact(th)[1:], theta)[0]
         touchdown.append(value[0])
         e.append(value[1])
         e_se.append(float(np.sqrt(gradient @ covariance @ gradient)))

@@ -7,6 +7,7 @@ from __future__ import annotations
 import numpy as np
 from scipy import stats
 
+from .numerics import jacobian, propagate
 from .physics import apex_rise, bounce_heights, speed_below_apex, total_bouncing_time
 
 Z95 = float(stats.norm.ppf(0.975))
@@ -183,11 +184,10 @@ def itf_rebound(drop_height_m, drop_height_se_m, first_rebound_m, first_rebound_
         return float(apex_rise(e_value * speed_below_apex(itf_drop_height_m, k, gravity_m_s2), k, gravity_m_s2))
 
     value = rebound(e, drag_k_per_m)
-    k_step = 1e-6 + 1e-4 * drag_k_per_m
-    gradient = np.array([(rebound(e + 1e-6, drag_k_per_m) - value) / 1e-6,
-                         (rebound(e, drag_k_per_m + k_step) - value) / k_step])
+    gradient = jacobian(lambda x: np.array([rebound(x[0], x[1])]), np.array([e, drag_k_per_m]), lower=[0.0, 0.0],
+                        absolute_step=1e-7)
     covariance = np.array([[e_se**2, e_drag_covariance], [e_drag_covariance, drag_k_se_per_m**2]])
-    result = estimate(value, np.sqrt(max(gradient @ covariance @ gradient, 0.0)), "m")
+    result = estimate(value, np.sqrt(max(propagate(gradient, covariance)[0, 0], 0.0)), "m")
     result["method"] = f"predicted for a {100 * itf_drop_height_m:.0f} cm drop (measured drop " \
                        f"{100 * drop_height_m:.1f} cm) with e = {e:.4f} from {e_source} and drag k = " \
                        f"{drag_k_per_m:.4g} 1/m"

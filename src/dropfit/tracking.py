@@ -98,6 +98,7 @@ import numpy as np
 import pandas as pd
 
 from .errors import InputError
+from .numerics import least_squares_covariance, robust_sigma
 
 QUALITY_OK = "ok"
 QUALITY_PARTIAL = "partial"
@@ -301,8 +302,7 @@ def estimate_background(samples):
     k = stack.shape[0]
     if k >= 3:
         # median absolute deviation about the median; of k samples, the median one contributes 0
-        deviation = np.abs(stack - grey[::8, ::8])
-        noise = 1.4826 * float(np.median(deviation)) * k / (k - 1)
+        noise = robust_sigma(stack - grey[::8, ::8], centre=0.0) * k / (k - 1)
     else:
         noise = 0.0
     threshold = max(NOISE_THRESHOLD_SIGMAS * noise, MIN_THRESHOLD_GREY)
@@ -398,9 +398,7 @@ def fit_circle_geometric(x, y, centre, radius, fixed_radius=False, iterations=8)
     distance = np.maximum(np.hypot(dx, dy), 1e-9)
     residual = distance - r
     jacobian = np.column_stack([-dx / distance, -dy / distance, -np.ones_like(dx)])[:, :n_params]
-    dof = max(x.size - n_params, 1)
-    variance = float(residual @ residual) / dof
-    covariance = variance * np.linalg.pinv(jacobian.T @ jacobian)
+    covariance = least_squares_covariance(jacobian, residual)
     centre_se = math.sqrt(max((covariance[0, 0] + covariance[1, 1]) / 2, 0.0))
     return cx, cy, r, centre_se, math.sqrt(float(np.mean(residual ** 2)))
 
@@ -442,7 +440,7 @@ def _fit_outline(coverage, points, centre, radius, radius_ref_px):
     start_r = radius_ref_px if fixed else radius
     fit = fit_circle_geometric(edge[:, 0], edge[:, 1], centre, start_r, fixed)
     residual = np.hypot(edge[:, 0] - fit[0], edge[:, 1] - fit[1]) - fit[2]
-    spread = 1.4826 * float(np.median(np.abs(residual - np.median(residual))))
+    spread = robust_sigma(residual)
     inlier = np.abs(residual) <= max(EDGE_OUTLIER_SIGMAS * spread, EDGE_OUTLIER_MIN_PX)
     if inlier.sum() < 8:
         return None

@@ -23,6 +23,7 @@ from . import video_limits
 from .calibration import SCALE_PRECEDENCE, choose_scale, infer_capture_rate, ruler_scale
 from .errors import InputError
 from .heightlog import flight_acceleration, make_trajectory, scale_from_gravity
+from .numerics import robust_sigma
 from .physics import STANDARD_GRAVITY_M_S2
 
 VIDEO_SUFFIXES = (".avi", ".mp4", ".mov", ".mkv", ".m4v")
@@ -54,7 +55,7 @@ def scale_from_diameter(radius_px, ball_radius_m):
     """
     radius_px = radius_px[np.isfinite(radius_px)]
     median = float(np.median(radius_px))
-    spread = 1.4826 * float(np.median(np.abs(radius_px - median)))
+    spread = robust_sigma(radius_px, centre=median)
     median_se = 1.2533 * spread / np.sqrt(radius_px.size)
     scale = ball_radius_m / median
     return scale, scale * median_se / median

@@ -1,0 +1,287 @@
+"""Flight fits: the closed-form vertical flights of :mod:`dropfit.physics` fitted jointly to the samples.
+
+All flights share g and, when it is fitted, the quadratic-drag parameter k; each has its own apex
+time and height. Also the checks made on a fit: whether a flight's residuals hide an impact, whether
+an impact found between two flights really reverses the velocity, and the Bayesian information
+criterion that decides whether drag is fitted.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy import stats
+from scipy.optimize import least_squares
+
+from ..numerics import jacobian, least_squares_covariance, linear_fit, propagate
+from ..physics import flight_height, flight_velocity
+
+#: An impact needs both of its flights sampled at least this often to be analysed.
+MIN_SAMPLES_PER_FLIGHT = 5
+#: A flight whose residuals are this improbable under the noise hides an undetected impact.
+MISFIT_P_VALUE = 1e-4
+#: An impact must reverse the velocity by this many standard errors; a noise dip does not reverse it.
+VELOCITY_REVERSAL_IN_SE = 3.0
+
+
+class FlightModel:
+    """Joint least-squares model of all flights: θ = (y_apex_0, t_apex_0, …, [k]); without a fitted k,
+    the drag parameter is held at ``fixed_k`` (1/m)."""
+
+    def __init__(self, t, y, flight_of_sample, n_flights, with_drag, g, fixed_k=0.0):
+        self.t, self.y = t, y
+        self.flight = flight_of_sample
+        self.n_flights = n_flights
+        self.with_drag = with_drag
+        self.g = g
+        self.fixed_k = fixed_k
+
+    def unpack(self, theta):
+        """(apex heights in m, apex times in s, k in 1/m) from θ."""
+        y_apex = theta[0: 2 * self.n_flights: 2]
+        t_apex = theta[1: 2 * self.n_flights: 2]
+        k = float(theta[-1]) if self.with_drag else self.fixed_k
+        return y_apex, t_apex, k
+
+    def residuals(self, theta):
+        """Model minus data at every sample, m."""
+        y_apex, t_apex, k = self.unpack(theta)
+        model = flight_height(self.t, t_apex[self.flight], y_apex[self.flight], k, self.g)
+        return np.nan_to_num(model - self.y, nan=1e6, neginf=-1e6, posinf=1e6)
+
+    def jacobian(self, theta):
+        """Analytic derivatives of the residuals by the apex heights and times; k's column numerically."""
+        y_apex, t_apex, k = self.unpack(theta)
+        rows = np.arange(self.t.size)
+        jac = np.zeros((self.t.size, theta.size))
+        jac[rows, 2 * self.flight] = 1.0
+        jac[rows, 2 * self.flight + 1] = -flight_velocity(self.t, t_apex[self.flight], 0.0, k, self.g)
+        if self.with_drag:
+            jac[:, -1] = jacobian(lambda drag: flight_height(self.t, t_apex[self.flight], y_apex[self.flight], drag[0],
+                                                             self.g), np.array([k]), lower=[0.0], absolute_step=1e-7)[:, 0]
+        return np.nan_to_num(jac)
+
+    def lower_bounds(self, n_parameters):
+        """Lower bound of every parameter: none, but k ≥ 0."""
+        lower = np.full(n_parameters, -np.inf)
+        if self.with_drag:
+            lower[-1] = 0.0
+        return lower
+
+    def fit(self, theta0):
+        """Least-squares fit from ``theta0`` (scipy's OptimizeResult)."""
+        if self.with_drag:
+            return least_squares(self.residuals, theta0, jac=self.jacobian, bounds=(self.lower_bounds(theta0.size), np.inf),
+                                 method="trf", x_scale="jac", xtol=1e-12, ftol=1e-12)
+        return least_squares(self.residuals, theta0, jac=self.jacobian, method="lm", xtol=1e-12, ftol=1e-12)
+
+
+def fit_covariance(result):
+    """Parameter covariance σ² (JᵀJ)⁻¹ of a least-squares result, σ² from its residuals."""
+    return least_squares_covariance(result.jac, result.fun)
+
+
+def known_g_parabola(t, y, g):
+    """Closed-form least-squares parabola of known curvature: y + g τ²/2 = a0 + a1 τ, τ = t − mean(t).
+
+    Parameters
+    ----------
+    t : numpy.ndarray
+        Times in s of one flight's samples.
+    y : numpy.ndarray
+        Heights (length unit L, up).
+    g : float
+        Downward acceleration in L/s².
+
+    Returns
+    -------
+    (float, float, numpy.ndarray)
+        Apex height (L), apex time (s) and their covariance (σ² from the residuals).
+    """
+    centre = float(np.mean(t))
+    tau = t - centre
+    (a0, a1), covariance = linear_fit(np.column_stack([np.ones_like(tau), tau]), y + 0.5 * g * tau**2)
+    t_apex = a1 / g
+    # (y_apex, t_apex) is a smooth map of (a0, a1): carry the covariance through it
+    to_apex = np.array([[1.0, t_apex], [0.0, 1.0 / g]])
+    return a0 + 0.5 * g * t_apex**2, t_apex + centre, propagate(to_apex, covariance)
+
+
+def parabola_start(t, y, g):
+    """(apex height, apex time) of :func:`known_g_parabola`: the starting point of a flight's fit."""
+    return known_g_parabola(t, y, g)[:2]
+
+
+def assign_samples(t, flights_bounds):
+    """Flight index of every sample (−1 = not in any flight) for open time intervals."""
+    flight = np.full(t.size, -1)
+    for i, (start, end) in enumerate(flights_bounds):
+        flight[(t > start) & (t < end)] = i
+    return flight
+
+
+def fit_flights(t, y, bounds, with_drag, g, theta0, fixed_k=0.0):
+    """Assign samples to the flights in ``bounds`` (list of (start, end) in s) and fit them jointly
+    (k fitted, or held at ``fixed_k`` in 1/m); None if a flight has fewer than
+    ``MIN_SAMPLES_PER_FLIGHT`` samples.
+
+    Returns
+    -------
+    (FlightModel, scipy.optimize.OptimizeResult, numpy.ndarray) or None
+        The model, the fit and the samples per flight.
+    """
+    flight = assign_samples(t, bounds)
+    counts = np.bincount(flight[flight >= 0], minlength=len(bounds))
+    if np.any(counts < MIN_SAMPLES_PER_FLIGHT):
+        return None
+    used = flight >= 0
+    model = FlightModel(t[used], y[used], flight[used], len(bounds), with_drag, g, fixed_k)
+    return model, model.fit(theta0), counts
+
+
+def bic(result):
+    """Bayesian information criterion of a least-squares fit with Gaussian noise."""
+    n = result.fun.size
+    rss = float(result.fun @ result.fun)
+    return n * np.log(max(rss, 1e-300) / n) + result.x.size * np.log(n)
+
+
+def first_spurious_impact(model, result):
+    """Index of the first impact across which the fitted velocity does not reverse significantly.
+
+    At a real impact the velocity jumps from falling to rising by (1 + e) v_in; where a noise dip split
+    one flight (near its apex, where the ball is slow and densely sampled), the two fitted halves
+    have the same velocity at the split.
+    """
+    last = np.array([model.t[model.flight == i].max() for i in range(model.n_flights - 1)])
+    first = np.array([model.t[model.flight == i + 1].min() for i in range(model.n_flights - 1)])
+    split = 0.5 * (last + first)
+
+    def velocity_jump(theta):
+        y_apex, t_apex, k = model.unpack(theta)
+        return (flight_velocity(split, t_apex[1:], 0.0, k, model.g)
+                - flight_velocity(split, t_apex[:-1], 0.0, k, model.g))
+
+    jump = velocity_jump(result.x)
+    jac = jacobian(velocity_jump, result.x, model.lower_bounds(result.x.size))
+    se = np.sqrt(np.clip(np.diag(propagate(jac, fit_covariance(result))), 0.0, None))
+    spurious = np.flatnonzero(jump < VELOCITY_REVERSAL_IN_SE * se)
+    return int(spurious[0]) if spurious.size else None
+
+
+def first_misfit_flight(model, result, noise):
+    """Index of the first flight whose residuals are too large for the noise (χ² test, p < 1e-4)."""
+    for i in range(model.n_flights):
+        residual = result.fun[model.flight == i]
+        chi2 = float(residual @ residual) / noise**2
+        if stats.chi2.sf(chi2, max(residual.size - 2, 1)) < MISFIT_P_VALUE:
+            return i
+    return None
+
+
+def combine_with_prior(result, prior_k, prior_se):
+    """k (1/m) and its se from the free-k fit ``result`` combined with the prior ``prior_k`` ± ``prior_se``
+    by inverse-variance weighting: flights that cannot pin k down on their own still narrow it."""
+    data_se = float(np.sqrt(max(fit_covariance(result)[-1, -1], 0.0)))
+    if not data_se > 0:
+        return prior_k, prior_se
+    weights = np.array([1.0 / data_se**2, 1.0 / prior_se**2])
+    value = float(weights @ [result.x[-1], prior_k] / weights.sum())
+    return value, float(1.0 / np.sqrt(weights.sum()))
+
+
+def shared_acceleration(pieces):
+    """Downward acceleration shared by several flights, each with its own start height and speed.
+
+    Linear least squares of y = a_j + b_j τ − A τ²/2 over the flights j (τ from each flight's first
+    sample), in the units of the data.
+
+    Parameters
+    ----------
+    pieces : list of (numpy.ndarray, numpy.ndarray)
+        Times (s) and heights (any length unit, up) of each flight.
+
+    Returns
+    -------
+    (float, float)
+        A and its standard error, in length units per s².
+    """
+    rows, targets = [], []
+    for j, (time, height) in enumerate(pieces):
+        tau = time - time[0]
+        block = np.zeros((tau.size, 2 * len(pieces) + 1))
+        block[:, 2 * j], block[:, 2 * j + 1], block[:, -1] = 1.0, tau, -0.5 * tau**2
+        rows.append(block)
+        targets.append(height)
+    coef, covariance = linear_fit(np.vstack(rows), np.concatenate(targets))
+    return float(coef[-1]), float(np.sqrt(covariance[-1, -1]))
+
+
+@dataclass
+class SharedAcceleration:
+    """Result of :func:`shared_acceleration_with_drag`, in the length unit L of the data.
+
+    Attributes
+    ----------
+    acceleration, acceleration_se : float
+        Downward acceleration without drag (L/s²) and its standard error.
+    drag_k, drag_k_se : float
+        Quadratic-drag parameter (1/L) and its standard error; 0 for the model without drag.
+    drag_model : str
+        ``"quadratic"`` or ``"none"``, chosen by the Bayesian information criterion.
+    """
+
+    acceleration: float
+    acceleration_se: float
+    drag_k: float
+    drag_k_se: float
+    drag_model: str
+
+
+def shared_acceleration_with_drag(pieces):
+    """Free-fall acceleration shared by several flights, with a shared quadratic drag if the data ask.
+
+    Each flight is the closed form of :func:`dropfit.physics.flight_height` (its own apex time and
+    height) with a shared acceleration A and drag parameter k ≥ 0: ÿ = −A − k ẏ|ẏ|. Without drag
+    the curvature of a fall underestimates A by a fraction of order k v² / A (about 0.4 % for a
+    tennis ball from 254 cm). The drag term is kept only when the Bayesian information criterion
+    prefers it. k in 1/L does not depend on the time unit, so A scales as (time unit)⁻² alone.
+
+    Parameters
+    ----------
+    pieces : list of (numpy.ndarray, numpy.ndarray)
+        Times (s) and heights (any length unit L, up) of each flight.
+
+    Returns
+    -------
+    SharedAcceleration
+    """
+    start, start_se = shared_acceleration(pieces)
+    if not start > 0:  # the flights curve upwards (e.g. a few ms of a close-up): no fall to refine
+        return SharedAcceleration(start, start_se, 0.0, 0.0, "none")
+    theta0 = []
+    for time, height in pieces:
+        theta0.extend(parabola_start(time, height, start))
+    n = len(pieces)
+
+    def residuals(theta):
+        k = theta[2 * n + 1] if theta.size > 2 * n + 1 else 0.0
+        return np.concatenate([flight_height(time, theta[2 * j + 1], theta[2 * j], k, theta[2 * n]) - height
+                               for j, (time, height) in enumerate(pieces)])
+
+    fits = {}
+    for model, extra in (("none", [start]), ("quadratic", [start, 0.0])):
+        theta = np.array(theta0 + extra)
+        lower = np.full(theta.size, -np.inf)
+        lower[2 * n] = 0.0  # the acceleration points down
+        if model == "quadratic":
+            lower[-1] = 0.0
+        fits[model] = least_squares(residuals, theta, bounds=(lower, np.inf), x_scale="jac", xtol=1e-12,
+                                    ftol=1e-12)
+    model = "quadratic" if bic(fits["quadratic"]) < bic(fits["none"]) else "none"
+    result = fits[model]
+    se = np.sqrt(np.clip(np.diag(fit_covariance(result)), 0.0, None))
+    drag = model == "quadratic"
+    return SharedAcceleration(float(result.x[2 * n]), float(se[2 * n]), float(result.x[-1]) if drag else 0.0,
+                              float(se[-1]) if drag else 0.0, model)

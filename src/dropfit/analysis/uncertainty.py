@@ -1,0 +1,115 @@
+"""Uncertainty: the covariance of every impact quantity, from the fit and from what the fit holds fixed.
+
+The statistical part propagates the fit covariance through the impact quantities (delta method). The
+systematic parts are rank-one terms, one per quantity the fit takes as known: a held drag parameter,
+the length scale of a px recording, a given contact height. Each is the total derivative of the
+quantities (with the flights refitted, linearised) times that input's standard error.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..numerics import derivative, jacobian, propagate
+from .flights import fit_covariance
+
+
+def correlated_noise_factor(correlation):
+    """Variance factor (1 + ρ)/(1 − ρ) of an average over AR(1) errors of lag-1 correlation ρ."""
+    return (1.0 + correlation) / (1.0 - correlation)
+
+
+def refit_response(result, residual_change):
+    """Linearised change of the fitted θ when the residuals change by ``residual_change`` (least squares)."""
+    return -np.linalg.lstsq(result.jac, residual_change, rcond=None)[0]
+
+
+def fixed_drag_sensitivity(model, result, quantities, quantity_jacobian):
+    """Total derivative of the quantities with respect to a held drag parameter k (per 1/m): the
+    direct change at fixed θ plus the change through θ, refitted by least squares to the new k."""
+    k = model.fixed_k
+
+    def at(k_value, function):
+        model.fixed_k = k_value
+        try:
+            return function(result.x)
+        finally:
+            model.fixed_k = k
+
+    step = 1e-3 * k
+    residual_slope = derivative(lambda value: at(value, model.residuals), k, step)
+    direct = derivative(lambda value: at(value, quantities), k, step)
+    return direct + quantity_jacobian @ refit_response(result, residual_slope)
+
+
+def scale_sensitivity(quantities, result, step=1e-6):
+    """Derivative of the quantity vector with respect to the relative scale error ε.
+
+    A scale off by ε multiplies every height (about the trajectory's zero) and a given contact height
+    by 1 + ε. The fit answers with δθ = ε (JᵀJ)⁻¹Jᵀy (linearised, as in the covariance); with g known
+    it does not simply scale the heights, because the flight times also tell them.
+    """
+    # the residuals are model − data: scaling the data by 1 + ε changes them by −ε y
+    response = refit_response(result, -quantities.model.y)
+    height = quantities.given_contact_height
+
+    def scaled(epsilon):
+        moved = quantities if height is None else quantities.with_contact_height(height * (1.0 + epsilon))
+        return moved(result.x + epsilon * response)
+
+    return derivative(scaled, 0.0, step)
+
+
+def contact_height_sensitivity(quantities, theta, step_m=1e-6):
+    """Derivative of the impact quantities with respect to a given contact height (per m)."""
+    height = quantities.given_contact_height
+    return derivative(lambda value: quantities.with_contact_height(value)(theta), height, step_m)
+
+
+def quantity_covariance(model, result, quantities, held_k_se=0.0, scale_rel_se=0.0, contact_height_se_m=0.0,
+                        noise_correlation=0.0):
+    """Covariance of the quantity vector of ``quantities`` at the fit ``result``, with its parts.
+
+    Parameters
+    ----------
+    model, result, quantities
+        The flight model, its least-squares fit and the impact quantities built on it.
+    held_k_se : float
+        Standard error (1/m) of a drag parameter the fit holds (``model.fixed_k``).
+    scale_rel_se : float
+        Relative standard error of the length scale that brought the heights to m.
+    contact_height_se_m : float
+        Standard error (m) of a given contact height.
+    noise_correlation : float
+        Lag-1 correlation of the height errors; the fit covariance grows by (1 + ρ)/(1 − ρ).
+
+    Returns
+    -------
+    dict
+        ``covariance`` of the quantities, ``theta_covariance`` (inflated fit covariance),
+        ``k_variance`` ((1/m)², fitted or held k), ``drag_covariance`` (of each quantity with k) and
+        ``scale_part`` (each quantity's signed share from the scale, same unit as the quantity).
+    """
+    theta = result.x
+    cov_theta = correlated_noise_factor(noise_correlation) * fit_covariance(result)
+    vector = quantities(theta)
+    jac = jacobian(quantities, theta, model.lower_bounds(theta.size))
+    cov = propagate(jac, cov_theta)
+    if model.with_drag:
+        k_variance = float(cov_theta[-1, -1])
+        drag_covariance = jac @ cov_theta[:, -1]
+    else:
+        k_variance = held_k_se**2
+        sensitivity = fixed_drag_sensitivity(model, result, quantities, jac) if model.fixed_k > 0 \
+            else np.zeros(vector.size)
+        cov += k_variance * np.outer(sensitivity, sensitivity)
+        drag_covariance = k_variance * sensitivity
+    # the length scale's error moves every quantity together: a rank-one term in their covariance
+    scale_part = scale_rel_se * np.nan_to_num(scale_sensitivity(quantities, result)) if scale_rel_se \
+        else np.zeros(vector.size)
+    cov += np.outer(scale_part, scale_part)
+    if quantities.given_contact_height is not None and contact_height_se_m > 0:
+        height_part = contact_height_se_m * contact_height_sensitivity(quantities, theta)
+        cov += np.outer(height_part, height_part)
+    return {"covariance": cov, "theta_covariance": cov_theta, "k_variance": k_variance,
+            "drag_covariance": drag_covariance, "scale_part": scale_part}

@@ -1,0 +1,115 @@
+"""The three numerical helpers every estimator shares: a robust standard deviation, the covariance of a
+least-squares fit from its Jacobian, and numerical derivatives. Each formula lives here once.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+#: σ = MAD_SCALE × median absolute deviation for Gaussian data.
+MAD_SCALE = 1.4826
+
+
+def robust_sigma(values, centre=None):
+    """Standard deviation estimated from the median absolute deviation, immune to a few outliers.
+
+    Parameters
+    ----------
+    values : array_like
+        Samples (any unit); NaNs are ignored.
+    centre : float, optional
+        The value deviations are taken from; default their median.
+
+    Returns
+    -------
+    float
+        σ in the unit of ``values`` (0 for no finite value).
+    """
+    values = np.asarray(values, dtype=float)
+    values = values[np.isfinite(values)]
+    if values.size == 0:
+        return 0.0
+    centre = float(np.median(values)) if centre is None else float(centre)
+    return MAD_SCALE * float(np.median(np.abs(values - centre)))
+
+
+def least_squares_covariance(jacobian, residuals, n_parameters=None):
+    """Parameter covariance σ² (JᵀJ)⁻¹ of a least-squares fit, σ² from its residuals.
+
+    Parameters
+    ----------
+    jacobian : numpy.ndarray
+        J, shape (n, p): derivative of the residuals with respect to the parameters.
+    residuals : numpy.ndarray
+        Residuals at the minimum, shape (n,) (any unit).
+    n_parameters : int, optional
+        Parameters fitted, for the degrees of freedom n − p; default p, the columns of J.
+
+    Returns
+    -------
+    numpy.ndarray
+        Covariance, shape (p, p), in the parameters' units (a pseudo-inverse where JᵀJ is singular).
+    """
+    jacobian = np.asarray(jacobian, dtype=float)
+    residuals = np.asarray(residuals, dtype=float)
+    p = jacobian.shape[1] if n_parameters is None else n_parameters
+    dof = max(residuals.size - p, 1)
+    sigma2 = float(residuals @ residuals) / dof
+    return sigma2 * np.linalg.pinv(jacobian.T @ jacobian)
+
+
+def linear_fit(design, target):
+    """Ordinary least squares target ≈ design @ coef, with the coefficients' covariance.
+
+    Returns
+    -------
+    (numpy.ndarray, numpy.ndarray)
+        The coefficients, shape (p,), and their covariance σ² (XᵀX)⁻¹ with σ² from the residuals.
+    """
+    design = np.asarray(design, dtype=float)
+    target = np.asarray(target, dtype=float)
+    coef, *_ = np.linalg.lstsq(design, target, rcond=None)
+    return coef, least_squares_covariance(design, target - design @ coef)
+
+
+def propagate(jacobian, covariance):
+    """Covariance J C Jᵀ of a function of parameters with covariance C (delta method)."""
+    jacobian = np.atleast_2d(np.asarray(jacobian, dtype=float))
+    return jacobian @ np.asarray(covariance, dtype=float) @ jacobian.T
+
+
+def jacobian(function, theta, lower=None, relative_step=1e-6, absolute_step=1e-6):
+    """Central-difference Jacobian of a vector function, one-sided where a step down would cross a bound.
+
+    Parameters
+    ----------
+    function : callable
+        θ ↦ vector (numpy.ndarray, shape (m,)).
+    theta : numpy.ndarray
+        Parameters, shape (p,).
+    lower : numpy.ndarray, optional
+        Lower bound of each parameter (−inf where there is none).
+    relative_step, absolute_step : float
+        The step of parameter j is max(absolute_step, relative_step × |θ_j|), in θ_j's unit.
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape (m, p).
+    """
+    theta = np.asarray(theta, dtype=float)
+    lower = np.full(theta.size, -np.inf) if lower is None else np.asarray(lower, dtype=float)
+    base = np.asarray(function(theta), dtype=float)
+    jac = np.empty((base.size, theta.size))
+    for j in range(theta.size):
+        step = max(absolute_step, relative_step * abs(theta[j]))
+        up, down = theta.copy(), theta.copy()
+        up[j] += step
+        down[j] = max(theta[j] - step, lower[j])
+        jac[:, j] = (np.asarray(function(up), dtype=float) - np.asarray(function(down), dtype=float)) / (up[j] - down[j])
+    return jac
+
+
+def derivative(function, x, step):
+    """Central-difference derivative of a (vector) function of one scalar ``x``, with the given step."""
+    return (np.asarray(function(x + step), dtype=float) - np.asarray(function(x - step), dtype=float)) / (2.0 * step)
