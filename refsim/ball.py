@@ -397,7 +397,8 @@ def _integrate_contact(dyn: _Dynamics, t0: float, s0: np.ndarray, t_stop: float,
 
 
 def impact_response(ball: Ball, v_in_m_s: float, *, g_m_s2: float = G_DEFAULT, u_in_m_s: float = 0.0,
-                    spin_in_rad_s: float = 0.0, rtol: float = 1e-10, atol: float = 1e-12) -> dict:
+                    spin_in_rad_s: float = 0.0, rtol: float = 1e-10, atol: float = 1e-12,
+                    t_max_s: float = 0.1) -> dict:
     """Integrate a single contact starting at touchdown with normal speed ``v_in_m_s``.
 
     Parameters
@@ -412,6 +413,8 @@ def impact_response(ball: Ball, v_in_m_s: float, *, g_m_s2: float = G_DEFAULT, u
         Tangential velocity (m/s) and spin (rad/s) at touchdown.
     rtol, atol : float
         solve_ivp tolerances.
+    t_max_s : float
+        Give up (NaN results) if the ball has not separated after this time (s).
 
     Returns
     -------
@@ -420,11 +423,12 @@ def impact_response(ball: Ball, v_in_m_s: float, *, g_m_s2: float = G_DEFAULT, u
         ``contact_time_s`` (delta = 0 down to delta = 0 up),
         ``contact_time_force_s`` (touchdown to force zero), ``v_force_zero_m_s``,
         ``peak_force_N``, ``max_penetration_m``, ``u_out_m_s``,
-        ``spin_out_rad_s``.  NaN values if the ball does not separate within 1 s.
+        ``spin_out_rad_s``.  NaN values if the ball does not separate within
+        ``t_max_s`` (at very low speed gravity can keep it on the floor).
     """
     dyn = _Dynamics(ball, g_m_s2, 0.0, rtol, atol)
     s0 = np.array([0.0, 0.0, u_in_m_s, -abs(v_in_m_s), spin_in_rad_s])
-    r = _integrate_contact(dyn, 0.0, s0, 1.0, use_rest=False)
+    r = _integrate_contact(dyn, 0.0, s0, t_max_s, use_rest=False)
     ok = r.status == "separated"
     nan = math.nan
     return {
@@ -675,7 +679,9 @@ def simulate(ball: Ball | str, drop_height_m: float = 1.0, *, g_m_s2: float = G_
         Spin at release (rad/s, counter-clockwise positive).
     hand : HandPhase or None
         Hand phase before the release (track before ``t_release_s``); the
-        ball leaves with the hand's velocity.
+        ball leaves with the hand's velocity.  Without a hand the ball is
+        shown held still before the release (give a hand for a release with
+        velocity that is consistent before and after).
     catch : Catch or None
         A hand catching the ball; the simulation stops there and the track
         follows the hand afterwards.
