@@ -277,7 +277,7 @@ class _Dynamics:
         if self.mu <= 0.0:
             return 0
         slip = s[2] + s[4] * self.R
-        if abs(slip) <= 1e-12 * max(1.0, abs(s[2])):
+        if abs(slip) <= 1e-9 * max(1.0, abs(s[2])):
             return 2
         return 1 if slip > 0 else -1
 
@@ -307,6 +307,7 @@ def _integrate_contact(dyn: _Dynamics, t0: float, s0: np.ndarray, t_stop: float,
     t, s = t0, np.array(s0, dtype=float)
     regime = "force"
     first = True
+    forced_mode = None  # set to 2 (rolling) once a slip-stop event has fired
     t_fz = math.nan
     v_fz = math.nan
     max_pen, t_max_pen = 0.0, t0
@@ -316,7 +317,7 @@ def _integrate_contact(dyn: _Dynamics, t0: float, s0: np.ndarray, t_stop: float,
         return _ContactResult("rest", t0, s, [], math.nan, math.nan, 0.0, t0, 0.0, t0)
     for _ in range(10000):
         if regime == "force":
-            mode = dyn.friction_mode(s)
+            mode = forced_mode if forced_mode is not None else dyn.friction_mode(s)
             events = [dyn.ev_force_zero(), dyn.ev_separation(), dyn.ev_vmin()]
             if use_rest:
                 events.append(dyn.ev_rest())
@@ -377,12 +378,14 @@ def _integrate_contact(dyn: _Dynamics, t0: float, s0: np.ndarray, t_stop: float,
                     status = "separated"
             elif use_rest and _fired(sol, 3):
                 status = "rest"
-            # else: slip stopped -> stay in the force regime, rolling from now on
+            else:  # slip stopped -> stay in the force regime, rolling from now on
+                forced_mode = 2
         else:
             if _fired(sol, 1):
                 status = "separated"
             elif _fired(sol, 0):
                 regime = "force"
+                forced_mode = None
             elif use_rest and _fired(sol, 2):
                 status = "rest"
         t, s = t1, s_end
