@@ -339,15 +339,15 @@ def test_a_missed_impact_stops_the_sequence_and_is_not_taken_for_wrong_units():
     segment holds two flights and on its own falls with far less than g. The units are judged on the
     flights before it and the bounce sequence stops there: the impacts before it are analysed and
     agree with the generator."""
-    from dropfit.analysis import detect_bounces
+    from dropfit.analysis import segment
     from dropfit.synth import synthesize
 
     log, record = synthesize(STEEL_BALL_5MM_NOISE, 11)
     t, y = log["time_s"].to_numpy(), log["y_m"].to_numpy()
     true_times = np.array([impact["t_s"] for impact in record["impacts"]])
     true_e = np.array([impact["e"] for impact in record["impacts"]])
-    _, _, minima = detect_bounces(t, y)
-    detected = np.min(np.abs(true_times[:, None] - t[minima][None, :]), axis=1) < 2 * IMPACT_TIME_TOLERANCE_S
+    found = segment(t, y)
+    detected = np.min(np.abs(true_times[:, None] - found.time[found.impacts][None, :]), axis=1) < 2 * IMPACT_TIME_TOLERANCE_S
     first_missed = int(np.argmin(detected))
     assert not detected[first_missed] and first_missed >= 3  # the situation under test
     analysis = analyse_bounces(t, y)

@@ -21,7 +21,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
-from .analysis import MIN_SAMPLES_PER_FLIGHT, analyse_bounces, detect_bounces
+from .analysis import MIN_SAMPLES_PER_FLIGHT, analyse_bounces, segment
 from .analysis.flights import known_g_parabola
 from .analysis.impacts import meeting_height
 from .analysis.segment import last_flight_end
@@ -29,13 +29,11 @@ from .errors import InputError
 from .numerics import jacobian
 from .physics import STANDARD_GRAVITY_M_S2
 
-def _bounce_samples(time_s, height_m, source):
-    """Valid samples, then dropfit's segmentation of them (:func:`dropfit.analysis.detect_bounces`)."""
-    height = np.asarray(height_m, dtype=float)
-    valid = np.isfinite(height)
-    t, y = np.asarray(time_s, dtype=float)[valid], height[valid]
-    noise, release, minima = detect_bounces(t, y, source)
-    return t, y, release, minima, noise
+def _bounce_samples(time_s, height_m, source, gravity_m_s2=STANDARD_GRAVITY_M_S2):
+    """The samples dropfit's segmentation keeps (:func:`dropfit.analysis.segment`), its release and
+    bounces and the noise."""
+    found = segment(np.asarray(time_s, dtype=float), np.asarray(height_m, dtype=float), source, gravity_m_s2)
+    return found.time, found.height, found.release, found.impacts, found.noise
 
 
 def _flight_slices(y, release, minima, noise):
@@ -161,7 +159,7 @@ def parabola_fit(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, contact_h
         ``e`` and ``e_se`` (delta method on the two flights' fit covariances, taken independent).
     """
     g = float(gravity_m_s2)
-    t, y, release, minima, noise = _bounce_samples(time_s, height_m, source)
+    t, y, release, minima, noise = _bounce_samples(time_s, height_m, source, g)
     apexes, covariances = [], []
     for flight in _flight_slices(y, release, minima, noise):
         tf, yf = t[flight], y[flight]

@@ -140,10 +140,10 @@ def make_trajectory(time_s, height_m, source, calibration, attrs=None):
 def flight_acceleration(time_s, height_px, source="log"):
     """Downward acceleration of the flights in pixel units, with air drag where the data show it.
 
-    The flights are found in the pixel data and fitted jointly with a free acceleration and a
-    quadratic drag shared by all of them (:func:`dropfit.analysis.shared_acceleration_with_drag`).
-    The axis points down if the ball starts below its median position in pixel units (a drop starts
-    high and ends low).
+    The flights are found by dropfit's segmentation (:func:`dropfit.analysis.segment`: tracking jumps
+    and the hand's samples left out) and fitted jointly with a free acceleration and a quadratic drag
+    shared by all of them (:func:`dropfit.analysis.shared_acceleration_with_drag`). The axis direction
+    comes from the impacts (:func:`dropfit.analysis.vertical_sign`).
 
     Parameters
     ----------
@@ -160,24 +160,17 @@ def flight_acceleration(time_s, height_px, source="log"):
         The axis direction (−1 for image rows, which point down, +1 for up) and the fit in px/s²
         (drag k in 1/px).
     """
-    from .analysis import (MIN_SAMPLES_PER_FLIGHT, estimate_noise, find_impacts, find_release,
-                           shared_acceleration_with_drag)
+    from .analysis import MIN_SAMPLES_PER_FLIGHT, segment, shared_acceleration_with_drag, vertical_sign
 
-    valid = np.isfinite(height_px)
-    t, y = time_s[valid], height_px[valid]
-    # a dropped ball starts high and spends most of the log lower down: if the first sample lies
-    # below the median in pixel units, the axis points down (image rows)
-    sign = -1.0 if y[0] < np.median(y) else 1.0
-    up = sign * y
-    noise = max(estimate_noise(up), 1e-9 * float(np.ptp(up)))
-    release = find_release(up, noise)
-    minima = find_impacts(up, noise, start=(release or 0) + 1) if release is not None else np.array([], int)
-    edges = np.concatenate([[release or 0], minima])
+    sign = vertical_sign(time_s, height_px)
+    found = segment(time_s - time_s[0], sign * height_px, source)
+    # the flights from the release to the last impact (the one after it may end in a hand or at rest)
+    edges = np.concatenate([[found.release - 1], found.impacts])
     pieces = [(a + 1, b) for a, b in zip(edges[:-1], edges[1:]) if b - a - 1 >= MIN_SAMPLES_PER_FLIGHT]
     if not pieces:
         raise InputError(f"{source}: cannot calibrate pixels from gravity: no flight with at least "
                          f"{MIN_SAMPLES_PER_FLIGHT} samples between bounces; give scale_m_per_px")
-    fit = shared_acceleration_with_drag([(t[a:b], up[a:b]) for a, b in pieces])
+    fit = shared_acceleration_with_drag([(found.time[a:b], found.height[a:b]) for a, b in pieces])
     if fit.acceleration <= 0:
         raise InputError(f"{source}: cannot calibrate pixels from gravity: the flights do not curve downwards")
     return sign, fit

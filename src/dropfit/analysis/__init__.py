@@ -7,7 +7,7 @@ covariance, and :mod:`.bounces` runs the steps with their defaults (:func:`analy
 
 from .bounces import NOMINAL_DRAG_RELATIVE_SE, BounceAnalysis, analyse_bounces
 from .flights import MIN_SAMPLES_PER_FLIGHT, SharedAcceleration, shared_acceleration, shared_acceleration_with_drag
-from .segment import detect_bounces, estimate_noise, find_impacts, find_release
+from .segment import Segmentation, estimate_noise, find_impacts, segment, vertical_sign
 from .tables import se_column_name
 
 __all__ = [
@@ -16,10 +16,11 @@ __all__ = [
     "BounceAnalysis",
     "SharedAcceleration",
     "analyse_bounces",
-    "detect_bounces",
+    "Segmentation",
     "estimate_noise",
     "find_impacts",
-    "find_release",
+    "segment",
+    "vertical_sign",
     "se_column_name",
     "shared_acceleration",
     "shared_acceleration_with_drag",

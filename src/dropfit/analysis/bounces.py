@@ -23,13 +23,14 @@ import numpy as np
 import pandas as pd
 
 from ..errors import InputError
-from ..physics import STANDARD_GRAVITY_M_S2, time_from_apex
-from .flights import (MIN_SAMPLES_PER_FLIGHT, bic, combine_with_prior, first_misfit_flight, first_spurious_impact,
+from ..numerics import robust_sigma
+from ..physics import STANDARD_GRAVITY_M_S2, flight_height, time_from_apex
+from .flights import (MIN_SAMPLES_PER_FLIGHT, FlightModel, bic, combine_with_prior, first_misfit_flight, first_spurious_impact,
                       fit_flights, parabola_start)
 from .impacts import (IMPACT_COLUMNS, ImpactQuantities, contact_resolvable, quantity_index, rest_time,
                       unpack_quantities)
-from .segment import IMPACT_DEPTH_IN_NOISE, check_free_fall, detect_bounces, flight_bounds
-from .tables import add_with_interval
+from .segment import IMPACT_DEPTH_IN_NOISE, RELEASE_SIGMAS, check_free_fall, flight_bounds, segment
+from .tables import add_with_interval, se_column_name
 from .uncertainty import quantity_covariance
 
 #: Number of passes of "assign samples to flights, fit, locate the contacts".
@@ -124,63 +125,188 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
     BounceAnalysis
     """
     g = float(gravity_m_s2)
-    t_all = np.asarray(time_s, dtype=float)
-    y_all = np.asarray(height_m, dtype=float)
-    valid = np.isfinite(y_all)
-    t, y = t_all[valid], y_all[valid]
-    noise, release, minima = detect_bounces(t, y, source)
+    time_s = np.asarray(time_s, dtype=float)
+    height_m = np.asarray(height_m, dtype=float)
+    finite = np.isfinite(height_m)
+    # times relative to the first sample: Unix-epoch stamps would leave no digits for a parabola
+    origin = float(time_s[finite][0]) if finite.any() else 0.0
+    segmentation = segment(time_s - origin, height_m, source, acceleration=g)
+    notes = list(segmentation.notes)
+    problem = FitProblem(segmentation.time, segmentation.height, g, contact_height_m, segmentation.noise,
+                         float(contact_guard_s), float(segmentation.time[segmentation.release]))
+    bounds = initial_bounds(problem, segmentation, source)
+    held_k = float(nominal_drag_k_per_m or 0.0)
+    keep = np.ones(problem.t.size, dtype=bool)
+    while True:
+        fit, bics, held_k_se = fit_with_drag_choice(problem.subset(keep), bounds, drag, held_k, source)
+        earlier_release = release_extension(fit, problem)
+        if earlier_release is not None and earlier_release < problem.release_time:
+            problem.release_time = earlier_release
+            continue
+        outliers = residual_outliers(fit, problem.noise)
+        if outliers.size and np.count_nonzero(~keep) + outliers.size <= MAX_RESIDUAL_OUTLIER_FRACTION * keep.size:
+            keep[np.flatnonzero(keep)[np.isin(problem.t[keep], fit.model.t[outliers])]] = False
+            continue
+        unresolved = first_unresolved_impact(fit, problem.noise)
+        if unresolved is None:
+            break
+        if unresolved == 0:
+            raise InputError(f"{source}: the first rebound does not rise clearly above the contact height: no impact "
+                             f"is resolved (the ball may not bounce, or the floor is set too high)")
+        notes.append(f"impact {unresolved + 1}: its rebound rises less than {HOP_RESOLUTION_IN_NOISE:g} noise standard "
+                     f"deviations above the contact height, below the resolution; the bounce sequence ends before it")
+        bounds = fit.bounds[: unresolved + 1]
+    if fit.misfit_cut is not None:
+        notes.append(f"flight {fit.misfit_cut}: its residuals are far larger than the noise (a bounce too shallow to "
+                     f"detect, or not a free flight); the bounce sequence ends before it")
+    left_out = np.count_nonzero(~keep)
+    if left_out:
+        notes.append(f"{left_out} samples left out as outliers of the flight fit (more than "
+                     f"{RESIDUAL_OUTLIER_SIGMAS:g} noise standard deviations off)")
+    return _assemble(fit, bics, problem.subset(keep), origin, source, held_k_se, scale_rel_se,
+                     contact_height_se_m, noise_correlation, segmentation, left_out, notes)
 
-    bounds = flight_bounds(t, y, release, minima, noise, contact_height_m)
+
+@dataclass
+class FitProblem:
+    """What every fit of one recording shares: its samples (s, m; the hand's and the tracking jumps'
+    left out), g (m/s²), a given contact height (m, or None), the noise (m), the guard around the
+    contacts (s) and the release time (s), before which flight 0 never starts."""
+
+    t: np.ndarray
+    y: np.ndarray
+    g: float
+    contact_height: float | None
+    noise: float
+    guard_s: float
+    release_time: float
+
+    def subset(self, keep):
+        """The same problem on the samples ``keep`` (boolean mask)."""
+        return FitProblem(self.t[keep], self.y[keep], self.g, self.contact_height, self.noise, self.guard_s,
+                          self.release_time)
+
+
+@dataclass
+class FlightFit:
+    """A fitted bounce sequence: the flight model, its least-squares result, the samples per flight,
+    the impact quantities built on it, the flights' time intervals (s) and where a misfit ended the
+    sequence."""
+
+    model: FlightModel
+    result: object
+    counts: np.ndarray
+    quantities: ImpactQuantities
+    bounds: list
+    misfit_cut: int | None = None  # the flight whose residuals ended the sequence before it, if any
+
+
+def initial_bounds(problem, segmentation, source):
+    """Flight intervals (s) from the segmentation, up to the first flight sampled too sparsely or
+    hiding an impact; checks that the flights fall with g."""
+    t, y = problem.t, problem.y
+    bounds = flight_bounds(t, y, segmentation.release, segmentation.impacts, problem.noise, problem.contact_height)
     # keep impacts while both neighbouring flights are sampled well enough
     counts = [np.count_nonzero((t > lo) & (t < hi)) for lo, hi in bounds]
     n_flights = next((i for i, c in enumerate(counts) if c < MIN_SAMPLES_PER_FLIGHT), len(bounds))
     if n_flights < 2:
         raise InputError(f"{source}: no bounce with at least {MIN_SAMPLES_PER_FLIGHT} samples in the flights "
                          f"before and after it")
-    bounds = bounds[: check_free_fall(t, y, bounds[:n_flights], g, source)]
+    bounds = bounds[: check_free_fall(t, y, bounds[:n_flights], problem.g, source)]
     if len(bounds) < 2:
         raise InputError(f"{source}: the flight after the first bounce falls with far less than g: it hides a "
                          f"bounce too shallow to detect, and no impact is left to analyse")
+    return bounds
+
+
+def fit_with_drag_choice(problem, bounds, drag, held_k, source):
+    """Fit the flights in ``bounds`` with and (``drag="auto"``) without a free drag parameter; keep
+    the one the BIC prefers. Without a free k, k is held at ``held_k`` (1/m) combined with what the
+    free fit says about it.
+
+    Returns
+    -------
+    (FlightFit, dict, float)
+        The chosen fit, the BIC of each model tried (key: whether k was free) and the se of a held k (1/m;
+        the fit's model holds k itself).
+    """
+    t, y, g = problem.t, problem.y, problem.g
     starts = []
     for lo, hi in bounds:
         inside = (t > lo) & (t < hi)
         starts.extend(parabola_start(t[inside], y[inside], g))
-    theta_no_drag = np.asarray(starts)
-
     with_drag = drag != "off"
-    theta0 = np.append(theta_no_drag, 1e-3) if with_drag else theta_no_drag
-    guard_s = float(contact_guard_s)
-    held_k = float(nominal_drag_k_per_m or 0.0)
+    theta0 = np.append(starts, 1e-3) if with_drag else np.asarray(starts)
     held_k_se = NOMINAL_DRAG_RELATIVE_SE * held_k
-    fit = refine(t, y, bounds, with_drag, g, theta0, contact_height_m, noise, guard_s, held_k)
+    fit = refine(problem, bounds, with_drag, theta0, held_k)
     if fit is None:
         raise InputError(f"{source}: the flights could not be fitted (too few samples between bounces)")
-    bics = {with_drag: bic(fit[1])}
+    bics = {with_drag: bic(fit.result)}
     if drag == "auto":
         # compare the two models on the same samples: those the larger model kept
-        model, result, _, _, final_bounds = fit
-        rival = fit_flights(t, y, final_bounds, False, g, result.x[:-1], held_k)
+        rival = fit_flights(t, y, fit.bounds, False, g, fit.result.x[:-1], held_k)
         bics[False] = bic(rival[1])
         if bics[False] <= bics[True]:
             if held_k > 0:
-                held_k, held_k_se = combine_with_prior(result, held_k, held_k_se)
-            fit = refine(t, y, final_bounds, False, g, rival[1].x, contact_height_m, noise, guard_s, held_k) or fit
-    return _assemble(fit, bics, t_all, y_all, noise, g, float(t[release]), source, held_k_se, scale_rel_se,
-                     contact_height_se_m, noise_correlation)
+                held_k, held_k_se = combine_with_prior(fit.result, held_k, held_k_se)
+            fit = refine(problem, fit.bounds, False, rival[1].x, held_k) or fit
+    return fit, bics, held_k_se
 
 
-def refine(t, y, bounds, with_drag, g, theta0, contact_height_m, noise, guard_s, fixed_k=0.0):
+#: A sample whose flight-fit residual exceeds this many noise standard deviations is an outlier.
+RESIDUAL_OUTLIER_SIGMAS = 5.0
+#: At most this fraction of the samples is left out as residual outliers; beyond it, the model misfits
+#: and the misfit test, not outlier rejection, has to say so.
+MAX_RESIDUAL_OUTLIER_FRACTION = 0.02
+#: A rebound must rise this many noise standard deviations above the contact height to be resolved.
+HOP_RESOLUTION_IN_NOISE = 2.0
+
+
+def release_extension(fit, problem):
+    """Time (s) of the earliest sample before flight 0's start from which every sample fits the fitted
+    flight 0 within RELEASE_SIGMAS noise standard deviations, back to its apex; None if no earlier sample
+    does. The segmentation finds the release on a parabola; the fitted flight, drag and all, follows a
+    long fall to its top."""
+    y_apex, t_apex, k = fit.model.unpack(fit.result.x)
+    start = fit.bounds[0][0]
+    before = np.flatnonzero((problem.t <= start) & (problem.t >= t_apex[0]))[::-1]
+    if before.size == 0:
+        return None
+    residual = flight_height(problem.t[before], t_apex[0], y_apex[0], k, problem.g) - problem.y[before]
+    misfit = np.flatnonzero(np.abs(residual) > RELEASE_SIGMAS * problem.noise)
+    fitting = before[: misfit[0]] if misfit.size else before
+    return float(problem.t[fitting[-1]]) if fitting.size else None
+
+
+def residual_outliers(fit, noise):
+    """Positions (in the fit's samples) of the samples whose residual is an outlier."""
+    residual = fit.result.fun
+    scale = max(noise, robust_sigma(residual))
+    return np.flatnonzero(np.abs(residual) > RESIDUAL_OUTLIER_SIGMAS * scale)
+
+
+def first_unresolved_impact(fit, noise):
+    """Index of the first impact whose rebound does not rise clearly above the contact height (or
+    whose e is not a number); None if all are resolved."""
+    values = unpack_quantities(fit.quantities(fit.result.x), fit.quantities.n_impacts)
+    rise = values["apex_height_m"][1:]
+    bad = ~np.isfinite(values["e"]) | ~(rise > HOP_RESOLUTION_IN_NOISE * noise)
+    return int(np.flatnonzero(bad)[0]) if bad.any() else None
+
+
+def refine(problem, bounds, with_drag, theta0, fixed_k=0.0):
     """Alternate fitting and re-assigning samples by the fitted touchdown and lift-off times.
 
-    A flight keeps the samples more than ``guard_s`` (s) after the lift-off before it and before
-    the touchdown after it. A noise dip that split one flight in two is joined again; a flight whose
-    residuals hide an impact too shallow to detect ends the sequence before it.
+    A flight keeps the samples more than ``problem.guard_s`` after the lift-off before it and before
+    the touchdown after it; flight 0 starts at its apex, but never before the release. A noise dip
+    that split one flight in two is joined again; a flight whose residuals hide an impact too shallow
+    to detect ends the sequence before it.
 
     Returns
     -------
-    (FlightModel, OptimizeResult, numpy.ndarray, ImpactQuantities, list) or None
-        The model, its fit, the samples per flight, the impact quantities and the flights' bounds.
+    FlightFit or None
     """
+    t, y, g, guard_s = problem.t, problem.y, problem.g, problem.guard_s
     fitted = fit_flights(t, y, bounds, with_drag, g, theta0, fixed_k)
     if fitted is None:
         return None
@@ -189,14 +315,15 @@ def refine(t, y, bounds, with_drag, g, theta0, contact_height_m, noise, guard_s,
         i = spurious
         merged = bounds[:i] + [(bounds[i][0], bounds[i + 1][1])] + bounds[i + 2:]
         theta = np.delete(fitted[1].x, [2 * i + 2, 2 * i + 3])
-        return refine(t, y, merged, with_drag, g, theta, contact_height_m, noise, guard_s, fixed_k)
+        return refine(problem, merged, with_drag, theta, fixed_k)
     for _ in range(REFINEMENT_PASSES):
         model, result, counts = fitted
-        quantities = ImpactQuantities(model, contact_height_m)
+        quantities = ImpactQuantities(model, problem.contact_height)
         quantities.set_weights(result)
         values = unpack_quantities(quantities(result.x), quantities.n_impacts)
         y_apex, t_apex, k = model.unpack(result.x)
-        starts = np.concatenate([[t_apex[0] - 1e-9], values["t_liftoff_s"] + guard_s])
+        first_start = max(t_apex[0], problem.release_time) - 1e-9
+        starts = np.concatenate([[first_start], values["t_liftoff_s"] + guard_s])
         last_end = t_apex[-1] + time_from_apex(y_apex[-1] - values["contact_height_m"], k, g)
         ends = np.append(values["t_touchdown_s"] - guard_s, last_end - guard_s)
         new_bounds = list(zip(starts, ends))
@@ -205,19 +332,35 @@ def refine(t, y, bounds, with_drag, g, theta0, contact_height_m, noise, guard_s,
             break
         fitted, bounds = refitted, new_bounds
     model, result, counts = fitted
-    misfit = first_misfit_flight(model, result, noise)
+    misfit = first_misfit_flight(model, result, problem.noise)
     if misfit is not None and misfit >= 2:
         theta = np.concatenate([result.x[: 2 * misfit], result.x[2 * model.n_flights:]])
-        return refine(t, y, bounds[:misfit], with_drag, g, theta, contact_height_m, noise, guard_s, fixed_k)
-    quantities = ImpactQuantities(model, contact_height_m)
+        shorter = refine(problem, bounds[:misfit], with_drag, theta, fixed_k)
+        if shorter is not None and shorter.misfit_cut is None:
+            shorter.misfit_cut = misfit
+        return shorter
+    quantities = ImpactQuantities(model, problem.contact_height)
     quantities.set_weights(result)
-    return model, result, counts, quantities, bounds
+    return FlightFit(model, result, counts, quantities, bounds)
 
 
-def _assemble(fit, bics, t_all, y_all, noise, g, release_time, source, held_k_se, scale_rel_se, contact_height_se_m,
-              noise_correlation):
-    """The flights and impacts tables, covariances and summary of the final fit."""
-    model, result, counts, quantities, bounds = fit
+#: Columns of the tables that hold a time (s) since the recording's origin; their _ci95 bounds too.
+_TIME_COLUMNS = ("t_start_s", "t_end_s", "t_apex_s", "t_touchdown_s", "t_liftoff_s")
+
+
+def impact_notes(e):
+    """Whether each impact enters the fits of e (``in_fit``) and, where not, why (``note``)."""
+    in_fit = np.isfinite(e) & (e <= 1.0)
+    note = np.where(in_fit, "", "e > 1: an impact cannot give the ball energy (a hand, a tracking error or a missed "
+                                "impact); left out of every fit")
+    return in_fit, note
+
+
+def _assemble(fit, bics, problem, origin, source, held_k_se, scale_rel_se, contact_height_se_m,
+              noise_correlation, segmentation, residual_outliers_left_out, notes):
+    """The flights and impacts tables, covariances and summary of the final fit (times shifted back by
+    ``origin``, s)."""
+    model, result, counts, quantities, bounds = fit.model, fit.result, fit.counts, fit.quantities, fit.bounds
     theta = result.x
     parts = quantity_covariance(model, result, quantities, held_k_se, scale_rel_se, contact_height_se_m,
                                 noise_correlation)
@@ -256,11 +399,17 @@ def _assemble(fit, bics, t_all, y_all, noise, g, release_time, source, held_k_se
         raise InputError(f"{source}: the flights meet above the given contact height (floor + radius): "
                          f"the floor is lower than that; check floor_m and the ball radius")
     add_with_interval(impacts, "t_contact_ms", contact_ms, contact_se_ms)
-    sample_interval = float(np.median(np.diff(t_all)))
+    sample_interval = float(np.median(np.diff(problem.t)))
     impacts["contact_resolvable"] = contact_resolvable(contact_ms, contact_se_ms, sample_interval,
                                                        quantities.given_contact_height is not None)
     impacts["n_samples_before"] = counts[:-1]
     impacts["n_samples_after"] = counts[1:]
+    impacts["in_fit"], impacts["note"] = impact_notes(values["e"])
+    for table in (flights, impacts):
+        for name in _TIME_COLUMNS:
+            for column in (name, se_column_name(name, "ci95_low"), se_column_name(name, "ci95_high")):
+                if column in table:
+                    table[column] = table[column] + origin
 
     contact = values["contact_height_m"]
     summary = {
@@ -273,20 +422,24 @@ def _assemble(fit, bics, t_all, y_all, noise, g, release_time, source, held_k_se
         "drag_k_se_per_m": float(np.sqrt(parts["k_variance"])),
         "bic_no_drag": bics.get(False, np.nan),
         "bic_quadratic_drag": bics.get(True, np.nan),
-        "noise_m": float(noise),
+        "noise_m": float(problem.noise),
         "residual_rms_m": float(np.sqrt(np.mean(result.fun**2))),
         "sample_interval_s": sample_interval,
-        "release_time_s": release_time,
-        "drop_apex_time_s": float(t_apex[0]),
+        "release_time_s": problem.release_time + origin,
+        "hand_samples": int(segmentation.hand_samples),
+        "tracking_jump_samples": int(segmentation.outliers.size),
+        "residual_outlier_samples": int(residual_outliers_left_out),
+        "drop_apex_time_s": float(t_apex[0]) + origin,
         "drop_height_m": float(values["apex_height_m"][0]),
         "drop_height_se_m": float(errors["apex_height_m"][0]),
         "drop_height_scale_se_m": float(scale_errors["apex_height_m"][0]),
-        "rest_time_s": rest_time(t_all, y_all, contact, noise, IMPACT_DEPTH_IN_NOISE,
-                                 after=float(values["t_liftoff_s"][-1])),
-        "gravity_m_s2": g,
+        "rest_time_s": rest_time(problem.t, problem.y, contact, problem.noise, IMPACT_DEPTH_IN_NOISE,
+                                 after=float(values["t_liftoff_s"][-1])) + origin,
+        "gravity_m_s2": problem.g,
         "n_impacts": n,
         "scale_rel_se": float(scale_rel_se),
         "noise_correlation": float(noise_correlation),
+        "notes": list(notes),
     }
     e_rows = quantity_index("e", n)
     contact_rows = quantity_index("t_contact_s", n)

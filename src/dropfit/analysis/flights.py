@@ -14,7 +14,7 @@ import numpy as np
 from scipy import stats
 from scipy.optimize import least_squares
 
-from ..numerics import jacobian, least_squares_covariance, linear_fit, propagate
+from ..numerics import jacobian, least_squares_covariance, linear_fit, propagate, robust_sigma
 from ..physics import flight_height, flight_velocity
 
 #: An impact needs both of its flights sampled at least this often to be analysed.
@@ -171,10 +171,16 @@ def first_spurious_impact(model, result):
 
 
 def first_misfit_flight(model, result, noise):
-    """Index of the first flight whose residuals are too large for the noise (χ² test, p < 1e-4)."""
+    """Index of the first flight whose residuals are too large for the noise (χ² test, p < 1e-4).
+
+    The noise is the larger of ``noise`` and the robust spread of all the residuals: noise that is
+    correlated from sample to sample, or rounded, is larger than its differences say, alike in every
+    flight, while a hidden impact stands out in one.
+    """
+    scale = max(noise, robust_sigma(result.fun))
     for i in range(model.n_flights):
         residual = result.fun[model.flight == i]
-        chi2 = float(residual @ residual) / noise**2
+        chi2 = float(residual @ residual) / scale**2
         if stats.chi2.sf(chi2, max(residual.size - 2, 1)) < MISFIT_P_VALUE:
             return i
     return None

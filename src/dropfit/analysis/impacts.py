@@ -21,13 +21,16 @@ IMPACT_COLUMNS = ["t_touchdown_s", "t_liftoff_s", "v_in_m_s", "v_out_m_s", "e", 
 
 
 def meeting_height(y_before, t_before, y_after, t_after, k, g):
-    """Height in m where the falling branch of one flight meets the rising branch of the next."""
+    """Height in m where the falling branch of one flight meets the rising branch of the next; NaN
+    where they do not meet below the lower apex (two fitted flights that overlap in time)."""
     def gap(height):
         touchdown = t_before + time_from_apex(y_before - height, k, g)
         liftoff = t_after - time_from_apex(y_after - height, k, g, rising=True)
         return liftoff - touchdown
 
     top = min(y_before, y_after)
+    if not t_after > t_before or not gap(top) >= 0:
+        return float("nan")
     if k == 0.0:
         # both branches are parabolas with the same curvature: their meeting point is closed-form
         meet_t = 0.5 * (t_after + t_before) - (y_after - y_before) / (g * (t_after - t_before))
@@ -65,7 +68,9 @@ class ImpactQuantities:
         """The given contact height, or the weighted mean of the meeting heights (m)."""
         if self.given_contact_height is not None:
             return float(self.given_contact_height)
-        return float(np.sum(self.weights * self.meeting_heights(theta)) / np.sum(self.weights))
+        heights = self.meeting_heights(theta)
+        met = np.isfinite(heights)  # an impact whose flights do not meet ends the sequence later
+        return float(np.sum(self.weights[met] * heights[met]) / np.sum(self.weights[met])) if met.any() else np.nan
 
     def set_weights(self, result):
         """Weight each impact's meeting height by its inverse variance under the fit ``result``
@@ -74,7 +79,7 @@ class ImpactQuantities:
             return
         jac = jacobian(self.meeting_heights, result.x, self.model.lower_bounds(result.x.size))
         variance = np.diag(propagate(jac, fit_covariance(result)))
-        self.weights = 1.0 / np.maximum(variance, 1e-30)
+        self.weights = np.where(np.isfinite(variance), 1.0 / np.maximum(variance, 1e-30), 0.0)
 
     def with_contact_height(self, contact_height_m):
         """The same quantities with another given contact height (m) and the same weights."""

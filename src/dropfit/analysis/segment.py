@@ -1,21 +1,36 @@
 """Segmentation: from the samples of a trajectory to the release and the bounces that split it into flights.
 
-The first step of every estimator (:mod:`dropfit.estimators` starts from it too): the noise of the
-heights, the release sample and the lowest sample of each bounce, and from those the time interval
-of each flight before the fits refine it.
+The first step of every estimator (:mod:`dropfit.estimators` and the gravity calibration of a px log
+start from it too), in the order of the data:
+
+1. the noise of the heights (:func:`estimate_noise`);
+2. tracking jumps: runs of a few samples displaced from the track (:func:`find_outliers`), left out;
+3. the dips that may be bounces (:func:`find_impacts`), and among them the first real impact: the
+   one the ball reaches fastest (:func:`first_impact`). A hand holding, lifting, lowering or shaking
+   the ball before the release makes dips too, but slow ones;
+4. the release (:func:`find_release`): going back from the first impact, the earliest sample from
+   which the ball moves in free fall. Samples before it are the hand's and are left out.
+
+It needs no length scale: the downward acceleration of the flights is given (g, for heights in m) or
+measured from the bounces' own curvature (a px log before its calibration).
 """
 
 from __future__ import annotations
 
+import warnings
+from dataclasses import dataclass, field
+
 import numpy as np
+from numpy.lib.stride_tricks import sliding_window_view
 
 from ..errors import InputError
-from ..numerics import robust_sigma
+from ..numerics import linear_fit, robust_sigma
 from .flights import MIN_SAMPLES_PER_FLIGHT, shared_acceleration
 
 #: A dip must fall and rise by this many noise standard deviations to count as an impact.
 IMPACT_DEPTH_IN_NOISE = 5.0
-#: Noise floor in the height's own unit, so that noise-free data still segment.
+#: Noise floor in the height's own unit, as a fraction of the height range, so that noise-free data
+#: still segment.
 NOISE_FLOOR_FRACTION = 1e-6
 #: The flights' own curvature may differ from g by this fraction (drag changes it by a few %).
 FREE_FALL_TOLERANCE = 0.15
@@ -24,6 +39,61 @@ FREE_FALL_TOLERANCE = 0.15
 #: lowers a table-tennis ball's drop to 0.84 g; two flights fitted as one fall with far less).
 HIDDEN_IMPACT_ACCELERATION_FRACTION = 0.5
 HIDDEN_IMPACT_SIGMAS = 5.0
+#: A tracking jump displaces at most this many consecutive samples (a tracker that stays on another
+#: object longer is not a jump, and its samples fail the flight fits instead).
+MAX_OUTLIER_RUN = 12
+#: Samples on each side whose median velocity a jump's velocity spike is compared with.
+SPIKE_WINDOW = 3
+#: A velocity spike must stand this many noise standard deviations clear of both sides' medians.
+SPIKE_SIGMAS = 6.0
+#: The two ends of a jump displace the track by opposite amounts that agree within this fraction.
+JUMP_MATCH_TOLERANCE = 0.35
+#: Time in s before a dip whose samples may already be in contact (a tennis ball's contact lasts
+#: about 4.4 ms and the dip's sample lies within it); the approach speed and the fall are read earlier.
+CONTACT_CLEARANCE_S = 0.006
+#: Samples of the line whose slope is the speed at which the ball approaches a dip.
+APPROACH_SAMPLES = 5
+#: The first impact is the first dip approached at least this fraction of the fastest approach: the
+#: drop's impact is the fastest of all, a hand moves the ball far more slowly than its fall.
+FIRST_IMPACT_SPEED_FRACTION = 0.5
+#: A sample fits the free fall when it lies within this many standard deviations (noise and the
+#: fall's extrapolation) of the fall fitted to the samples after it.
+RELEASE_SIGMAS = 4.0
+
+
+@dataclass
+class Segmentation:
+    """Result of :func:`segment`: the samples kept and where the bounces split them.
+
+    Attributes
+    ----------
+    time, height : numpy.ndarray
+        The samples kept: valid, not a tracking jump (s; length unit L of the input, up).
+    noise : float
+        Noise standard deviation in L.
+    release : int
+        Index (into ``time``) of the first sample of the free fall.
+    impacts : numpy.ndarray
+        Index (into ``time``) of the lowest sample of each bounce after the release.
+    acceleration : float
+        Downward acceleration of the flights in L/s² (given, or measured from their curvature).
+    outliers : numpy.ndarray
+        Index (into the input samples) of each sample left out as a tracking jump.
+    hand_samples : int
+        Samples before the release (the ball held or moved by hand), left out.
+    notes : list of str
+        What was left out and why, in words.
+    """
+
+    time: np.ndarray
+    height: np.ndarray
+    noise: float
+    release: int
+    impacts: np.ndarray
+    acceleration: float
+    outliers: np.ndarray
+    hand_samples: int
+    notes: list = field(default_factory=list)
 
 
 def estimate_noise(y):
@@ -31,7 +101,7 @@ def estimate_noise(y):
 
     The third difference of a parabola sampled at a constant interval is zero, so the third
     differences of a free flight are pure noise with variance 20 σ²; the median absolute deviation
-    ignores the few that straddle an impact.
+    ignores the few that straddle an impact or a jump.
 
     Parameters
     ----------
@@ -46,13 +116,67 @@ def estimate_noise(y):
     return robust_sigma(np.diff(y, 3)) / np.sqrt(20.0)
 
 
-def find_release(y, noise):
-    """Index of the last sample before the ball starts to fall from the hand (0 if already falling)."""
-    start_level = np.median(y[: min(3, y.size)])
-    falling = np.flatnonzero(y < start_level - IMPACT_DEPTH_IN_NOISE * noise)
-    if falling.size == 0:
-        return None
-    return max(int(falling[0]) - 1, 0)
+def _side_medians(values, window):
+    """Median of the ``window`` values before and of the ``window`` after each value (NaN-padded ends)."""
+    padded = np.concatenate([np.full(window, np.nan), values, np.full(window, np.nan)])
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)  # the all-NaN windows at the ends
+        medians = np.nanmedian(sliding_window_view(padded, window), axis=1)
+    return medians[: values.size], medians[window + 1: window + 1 + values.size]
+
+
+def find_outliers(t, y, noise):
+    """Samples displaced from the track by a tracking jump: runs of 1 to ``MAX_OUTLIER_RUN`` samples.
+
+    A jump shows in the velocity between samples as two spikes: one where the track leaves, one where
+    it returns, displacing the positions by opposite, nearly equal amounts. A spike stands out from
+    the median velocity of the samples before it and of those after it, on the same side of both; an
+    impact does not, since there the velocity steps from falling to rising and the sample that
+    straddles it lies between the two sides, nor does the steady change of velocity by gravity.
+
+    Parameters
+    ----------
+    t : numpy.ndarray
+        Sample times in s, increasing.
+    y : numpy.ndarray
+        Heights (any length unit L), no NaNs.
+    noise : float
+        Noise standard deviation in L.
+
+    Returns
+    -------
+    numpy.ndarray
+        Boolean mask, True for a sample inside a jump.
+    """
+    outlier = np.zeros(y.size, dtype=bool)
+    if y.size < 2 * SPIKE_WINDOW + 3:
+        return outlier
+    dt = np.diff(t)
+    velocity = np.diff(y) / dt
+    change = np.diff(velocity)
+    # gravity changes the velocity between a value and the sides' medians by about two steps
+    trend = 2.0 * max(robust_sigma(change), abs(float(np.median(change))))
+    left, right = _side_medians(velocity, SPIKE_WINDOW)
+    from_left, from_right = velocity - left, velocity - right
+    threshold = SPIKE_SIGMAS * noise * np.sqrt(2.0) / dt + trend
+    same_side = np.sign(from_left) == np.sign(from_right)
+    size = np.minimum(np.abs(from_left), np.abs(from_right))
+    spikes = np.flatnonzero(same_side & (size > threshold))
+    jump = np.where(from_left > 0, 1.0, -1.0) * size * dt  # displacement each spike makes, in L
+    used = set()
+    for a_position, a in enumerate(spikes):
+        if a in used:
+            continue
+        for b in spikes[a_position + 1:]:
+            if b - a > MAX_OUTLIER_RUN:
+                break
+            if b in used or np.sign(jump[b]) == np.sign(jump[a]):
+                continue
+            if abs(jump[a] + jump[b]) <= JUMP_MATCH_TOLERANCE * max(abs(jump[a]), abs(jump[b])):
+                outlier[a + 1: b + 1] = True  # velocity a is between samples a and a + 1
+                used.update((a, b))
+                break
+    return outlier
 
 
 def find_impacts(y, noise, start=0, max_lag=3):
@@ -92,6 +216,165 @@ def find_impacts(y, noise, start=0, max_lag=3):
     return found
 
 
+def _clearance_samples(t):
+    """Samples in CONTACT_CLEARANCE_S at the median sample interval (at least 1)."""
+    return max(1, int(round(CONTACT_CLEARANCE_S / float(np.median(np.diff(t))))))
+
+
+def approach_speed(t, y, dips):
+    """Downward speed (L/s) at which the ball approaches each dip, read before its contact.
+
+    The slope of a line through the APPROACH_SAMPLES samples that end ``m`` samples before the dip, m
+    the samples in CONTACT_CLEARANCE_S (NaN where the log starts too late).
+    """
+    m = _clearance_samples(t)
+    speed = np.full(dips.size, np.nan)
+    for i, dip in enumerate(dips):
+        window = slice(dip - m - APPROACH_SAMPLES + 1, dip - m + 1)
+        if window.start >= 0:
+            tau = t[window] - t[window].mean()
+            speed[i] = -float(tau @ (y[window] - y[window].mean()) / (tau @ tau))
+    return speed
+
+
+def first_impact(t, y, dips):
+    """Position in ``dips`` of the first real impact: the first dip the ball approaches at least
+    FIRST_IMPACT_SPEED_FRACTION of the fastest approach.
+
+    Every bounce loses speed, so the impact that ends the drop is the fastest of all, give or take the
+    noise of the speeds; a hand holding, lifting, lowering or shaking the ball before the release
+    makes dips that it approaches slowly.
+    """
+    speed = approach_speed(t, y, dips)
+    if not np.any(np.isfinite(speed)):
+        return 0
+    return int(np.flatnonzero(speed >= FIRST_IMPACT_SPEED_FRACTION * np.nanmax(speed))[0])
+
+
+def flight_acceleration_estimate(t, y, dips, fall_end):
+    """Downward acceleration (L/s²) of the flights between the dips, measured from their curvature; with
+    no whole flight between them, from the last samples of the fall (index < ``fall_end``)."""
+    m = _clearance_samples(t)
+    pieces = [(t[a + m: b - m + 1], y[a + m: b - m + 1]) for a, b in zip(dips[:-1], dips[1:])
+              if b - a - 2 * m + 1 >= MIN_SAMPLES_PER_FLIGHT]
+    if not pieces:
+        start = max(0, fall_end - 4 * MIN_SAMPLES_PER_FLIGHT)
+        pieces = [(t[start:fall_end], y[start:fall_end])]
+    # the median of the flights' own curvatures: a hand that catches the ball at the end does not count
+    return float(np.median([shared_acceleration([piece])[0] for piece in pieces]))
+
+
+def find_release(t, y, noise, dip, acceleration):
+    """Index of the first sample of the free fall that ends at the first impact's ``dip``.
+
+    The fall is fitted with a parabola to its last samples, then extended back one stretch at a time
+    while every earlier sample lies within RELEASE_SIGMAS of the fitted fall (noise and the
+    extrapolation's own uncertainty); the first one that does not is the hand's. The parabola's
+    curvature is the downward ``acceleration`` (L/s²) within FREE_FALL_TOLERANCE: firm while the
+    stretch is short, free enough over a long fall for the drag to bend it. Returns None when no fall
+    of at least MIN_SAMPLES_PER_FLIGHT samples precedes the dip.
+    """
+    end = dip - _clearance_samples(t) + 1  # one past the last sample read
+    if end < MIN_SAMPLES_PER_FLIGHT:
+        return None
+    start = end - MIN_SAMPLES_PER_FLIGHT
+    tau = t - t[dip]
+    # the curvature's prior as one more observation, weighted like a sample of the noise
+    prior_weight = noise / (0.5 * FREE_FALL_TOLERANCE * acceleration)
+    prior_row, prior_target = prior_weight * np.array([0.0, 0.0, 1.0]), -0.5 * acceleration * prior_weight
+    while True:
+        design = np.vstack([np.column_stack([np.ones(end - start), tau[start:end], tau[start:end] ** 2]), prior_row])
+        coef, covariance = linear_fit(design, np.append(y[start:end], prior_target))
+        earlier = np.column_stack([np.ones(start), tau[:start], tau[:start] ** 2])
+        predicted_variance = np.einsum("ij,jk,ik->i", earlier, covariance, earlier)
+        # a parabola misses a long fall with drag (by 0.3 mm over 254 cm): judge by what it misses so far
+        scale = max(noise, float(np.sqrt(np.mean((y[start:end] - design[:-1] @ coef) ** 2))))
+        misfit = np.abs(y[:start] - earlier @ coef) > RELEASE_SIGMAS * np.sqrt(scale**2 + predicted_variance)
+        failing = np.flatnonzero(misfit)
+        new_start = int(failing[-1]) + 1 if failing.size else 0
+        if new_start == start:
+            return start
+        # extend, but no farther than doubling the stretch, so that the fit improves as it grows
+        start = max(new_start, start - max(end - start, MIN_SAMPLES_PER_FLIGHT))
+
+
+def segment(time_s, height, source="trajectory", acceleration=None):
+    """Noise, tracking jumps, release and bounces of a trajectory: the segmentation every estimator uses.
+
+    Parameters
+    ----------
+    time_s : numpy.ndarray
+        Sample times in s, increasing.
+    height : numpy.ndarray
+        Heights (any length unit L, up), NaN where the sensor dropped out.
+    source : str
+        Name of the recording, used in error messages.
+    acceleration : float, optional
+        Downward acceleration of a free flight in L/s² (g for heights in m); default: measured from
+        the bounces' curvature.
+
+    Returns
+    -------
+    Segmentation
+    """
+    time_s = np.asarray(time_s, dtype=float)
+    height = np.asarray(height, dtype=float)
+    valid = np.flatnonzero(np.isfinite(height))
+    t, y = time_s[valid], height[valid]
+    if y.size < 3 * MIN_SAMPLES_PER_FLIGHT:
+        raise InputError(f"{source}: only {y.size} valid samples, too few to find a bounce")
+    noise = max(estimate_noise(y), NOISE_FLOOR_FRACTION * float(np.ptp(y)))
+    jumps = find_outliers(t, y, noise)
+    outliers = valid[jumps]
+    t, y = t[~jumps], y[~jumps]
+    # lags up to ~10 ms: dense sampling through a contact that lasts a few milliseconds
+    sample_interval = float(np.median(np.diff(t)))
+    dips = find_impacts(y, noise, max_lag=max(3, int(round(0.01 / sample_interval))))
+    if dips.size == 0:
+        if np.ptp(y) <= 2 * IMPACT_DEPTH_IN_NOISE * noise:
+            raise InputError(f"{source}: the ball never falls (height stays within noise of its start)")
+        raise InputError(f"{source}: no bounce found (no dip deeper than {IMPACT_DEPTH_IN_NOISE:g} noise "
+                         f"standard deviations)")
+    dips = dips[first_impact(t, y, dips):]
+    if acceleration is None:
+        acceleration = flight_acceleration_estimate(t, y, dips, dips[0] - _clearance_samples(t) + 1)
+        if not acceleration > 0:
+            raise InputError(f"{source}: the flights between the bounces do not curve downwards: this does not "
+                             f"look like a ball bouncing on a floor (check the sign of the height axis)")
+    release = find_release(t, y, noise, dips[0], acceleration)
+    if release is None:
+        raise InputError(f"{source}: the log starts less than {MIN_SAMPLES_PER_FLIGHT} samples before the first "
+                         f"impact: no fall to analyse")
+    notes = []
+    if outliers.size:
+        notes.append(f"{outliers.size} samples left out as tracking jumps (runs of up to {MAX_OUTLIER_RUN} samples "
+                     f"displaced from the track and back)")
+    if release > 0:
+        notes.append(f"the ball was held or moved by hand until {t[release]:.4g} s: the {release} samples before "
+                     f"the free fall are left out")
+    return Segmentation(time=t, height=y, noise=noise, release=release, impacts=dips, acceleration=float(acceleration),
+                        outliers=outliers, hand_samples=release, notes=notes)
+
+
+def vertical_sign(time_s, height):
+    """+1 if the height axis points up, −1 if it points down (image rows).
+
+    Impacts are the sharpest features of a bounce log: second differences over about 10 ms that are
+    large and, on an axis pointing up, positive (the velocity reverses upwards). A tracking jump
+    makes large ones of both signs that cancel. Without any large one (no impact in view), a dropped
+    ball starts above its median position.
+    """
+    valid = np.isfinite(height)
+    t, y = time_s[valid], height[valid]
+    lag = max(1, int(round(0.01 / float(np.median(np.diff(t)))))) if t.size > 1 else 1
+    if y.size > 2 * lag:
+        curvature = y[2 * lag:] - 2 * y[lag:-lag] + y[: -2 * lag]
+        large = curvature[np.abs(curvature) > 10 * max(robust_sigma(curvature), 1e-12 * float(np.ptp(y)))]
+        if large.size and large.sum() != 0:
+            return float(np.sign(large.sum()))
+    return -1.0 if y[0] < np.median(y) else 1.0
+
+
 def last_flight_end(y, after, noise):
     """Index one past the last sample of the flight that starts at the impact sample ``after``."""
     level = y[after] + IMPACT_DEPTH_IN_NOISE * noise
@@ -102,39 +385,6 @@ def last_flight_end(y, after, noise):
         return after + 1
     later_below = below[below > above[0]]
     return after + 1 + (int(later_below[0]) if later_below.size else y.size - after - 1)
-
-
-def detect_bounces(t, y, source="trajectory"):
-    """Noise, release and the lowest sample of every bounce: the segmentation every estimator starts from.
-
-    Parameters
-    ----------
-    t : numpy.ndarray
-        Sample times in s, increasing, without the samples whose height is missing.
-    y : numpy.ndarray
-        Heights (any length unit, up) at ``t``, no NaNs.
-    source : str
-        Name of the recording, used in error messages.
-
-    Returns
-    -------
-    (float, int, numpy.ndarray)
-        Noise standard deviation (unit of ``y``), index of the release sample and indices of the
-        lowest sample of each bounce.
-    """
-    if y.size < 3 * MIN_SAMPLES_PER_FLIGHT:
-        raise InputError(f"{source}: only {y.size} valid samples, too few to find a bounce")
-    noise = max(estimate_noise(y), NOISE_FLOOR_FRACTION * float(np.ptp(y)))
-    release = find_release(y, noise)
-    if release is None:
-        raise InputError(f"{source}: the ball never falls (height stays within noise of its start)")
-    # lags up to ~10 ms: dense sampling through a contact that lasts a few milliseconds
-    sample_interval = float(np.median(np.diff(t)))
-    minima = find_impacts(y, noise, start=release + 1, max_lag=max(3, int(round(0.01 / sample_interval))))
-    if minima.size == 0:
-        raise InputError(f"{source}: no bounce found (no dip deeper than {IMPACT_DEPTH_IN_NOISE:g} noise "
-                         f"standard deviations after the release)")
-    return noise, release, minima
 
 
 def flight_bounds(t, y, release, minima, noise, contact_height=None):
