@@ -1,18 +1,22 @@
 """Command line: ``dropfit <stage> …``, one subcommand per workflow stage.
 
-A problem with the input prints one line, ``dropfit: error: <file>: <what is wrong>``, and exits
-with status 1; with ``--record-failure`` the stage instead writes failure records to its outputs
-and exits 0, so that a batch goes on and its summary lists the recording.
+A problem with the input prints one line, ``dropfit: error: <file>: <what is wrong>; <what to try>``,
+and exits with status 1; with ``--record-failure`` the stage instead writes failure records to its
+outputs and exits 0, so that a batch goes on and its summary lists the recording. The line quotes
+the user's text only through :func:`dropfit.errors.shown` (short, no control characters), and an
+output the failed stage had begun to write is removed: outputs are whole or absent.
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import traceback
+import warnings
 
 from . import stages
-from .errors import InputError
+from .errors import InputError, one_line, shown, shown_path
 from .files import write_failure
 from .physics import STANDARD_GRAVITY_M_S2
 from .restitution import ITF_DROP_HEIGHT_M, ITF_REBOUND_MAX_M, ITF_REBOUND_MIN_M
@@ -133,31 +137,63 @@ def _run(args):
                   args.itf_rebound_min_m, args.itf_rebound_max_m)
 
 
+#: The outputs of each stage, by argument name.
 _OUTPUTS = {"measure": ["out"], "analyse": ["impacts", "flights", "summary"], "fit": ["out"],
-            "report": ["html", "figure"]}
+            "report": ["html", "figure"], "summary": ["csv", "html"], "qc": ["html", "figure", "csv"]}
+#: The input each stage's messages name: the recording, the trajectory, the analysis, the fit results.
+_INPUTS = {"synth": "scenarios", "synth-video": "name", "measure": "log", "analyse": "trajectory",
+           "fit": "analysis", "report": "trajectory", "summary": "fits", "qc": "fits"}
+
+
+def _input_name(args):
+    """The stage's input file as messages name it (the first of several, with how many more)."""
+    value = getattr(args, _INPUTS[args.command])
+    if isinstance(value, list):
+        more = f" (and {len(value) - 1} more)" if len(value) > 1 else ""
+        return f"{shown_path(value[0])}{more}"
+    return shown_path(value)
+
+
+def _stat(path):
+    try:
+        info = os.stat(path)
+    except OSError:
+        return None
+    return info.st_ino, info.st_mtime_ns, info.st_size
 
 
 def main(argv=None):
     """Entry point of the ``dropfit`` console script and ``python -m dropfit``."""
     args = _parser().parse_args(argv)
     record = getattr(args, "record_failure", False)
+    outputs = [getattr(args, name) for name in _OUTPUTS.get(args.command, [])]
+    before = {path: _stat(path) for path in outputs}
     try:
-        _run(args)
+        with warnings.catch_warnings():
+            if not sys.warnoptions:  # numerical warnings are for developers (python -W shows them)
+                warnings.simplefilter("ignore")
+            _run(args)
     except InputError as error:
-        message = str(error)
-    except Exception as error:
-        if not record:
-            raise
-        # a bug, not the user's fault: keep the traceback in the log, but let the batch go on
+        message = one_line(str(error))
+    except Exception as error:  # noqa: BLE001 — a bug, not the user's fault
+        # the traceback goes to the log (standard error); the line, the failure records and the batch
+        # summary name the input and the error only
         traceback.print_exc()
-        message = f"internal error in dropfit {args.command} ({type(error).__name__}: {error}); please report it"
+        message = one_line(f"{_input_name(args)}: internal error in dropfit {args.command} "
+                           f"({type(error).__name__}: {shown(error)}); please report it with this file")
     else:
         return 0
+    for path in outputs:  # an output this run began to write is not whole: remove it
+        if _stat(path) != before[path]:
+            try:
+                os.remove(path)
+            except OSError:
+                pass
     print(f"dropfit: error: {message}", file=sys.stderr)
     if not record:
         return 1
-    for name in _OUTPUTS[args.command]:
-        write_failure(getattr(args, name), message)
+    for path in outputs:
+        write_failure(path, message)
     return 0
 
 
