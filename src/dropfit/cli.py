@@ -10,6 +10,7 @@ output the failed stage had begun to write is removed: outputs are whole or abse
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import sys
 import traceback
@@ -53,10 +54,10 @@ def _parser():
     measure.add_argument("--ball-type", help="tennis, steel, rubber, table_tennis or other")
     measure.add_argument("--scale-m-per-px", type=float,
                          help="m per px for logs in px (negative if the axis points down); default: from gravity")
-    measure.add_argument("--gravity-m-s2", type=_positive, default=STANDARD_GRAVITY_M_S2, help="gravity in m/s²")
-    measure.add_argument("--capture-fps", type=_positive,
+    measure.add_argument("--gravity-m-s2", type=float, default=STANDARD_GRAVITY_M_S2, help="gravity in m/s²")
+    measure.add_argument("--capture-fps", type=float,
                          help="capture rate in frames/s of a slow-motion video whose file states another rate")
-    measure.add_argument("--ruler-tick-m", type=_positive,
+    measure.add_argument("--ruler-tick-m", type=float,
                          help="video: spacing in m of the finest ticks of a ruler in the ball's plane (scale from it)")
     measure.add_argument("--floor-m", type=float,
                          help="height of the floor in the log's frame, in m (makes contact times measurable)")
@@ -69,7 +70,7 @@ def _parser():
     analyse.add_argument("--drag", choices=["auto", "off", "on"], default="auto",
                          help="quadratic air drag k: fitted when BIC prefers it (auto), never or always; when not "
                               "fitted, held at a smooth sphere's k if the ball's radius and mass are known")
-    analyse.add_argument("--gravity-m-s2", type=_positive, default=STANDARD_GRAVITY_M_S2, help="gravity in m/s²")
+    analyse.add_argument("--gravity-m-s2", type=float, default=STANDARD_GRAVITY_M_S2, help="gravity in m/s²")
 
     fit = stage("fit", "impacts → fit result (JSON): e, theory checks, ITF verdict")
     fit.add_argument("--analysis", required=True)
@@ -106,12 +107,40 @@ def _add_itf_window(parser):
     parser.add_argument("--itf-rebound-max-m", type=float, default=ITF_REBOUND_MAX_M)
 
 
-def _positive(text):
-    """argparse type: a float > 0."""
-    value = float(text)
-    if not value > 0:
-        raise argparse.ArgumentTypeError(f"must be positive, got {text}")
-    return value
+#: Option → (what it is, lowest, highest, whether the lowest is allowed): values outside are refused
+#: with one line naming the stage's input. The upper bounds catch a value in the wrong unit (a radius
+#: of 33.5 given in mm).
+_OPTION_RANGES = {
+    "ball_radius_m": ("the ball's radius in m (a tennis ball: 0.0335)", 0.0, 1.0, False),
+    "ball_mass_kg": ("the ball's mass in kg (a tennis ball: 0.057)", 0.0, 20.0, False),
+    "gravity_m_s2": ("gravity in m/s² (9.80665 on Earth)", 0.0, 100.0, False),
+    "capture_fps": ("the capture rate in frames/s", 0.0, math.inf, False),
+    "ruler_tick_m": ("the ruler's finest tick spacing in m (e.g. 0.01)", 0.0, 1.0, False),
+    "scale_m_per_px": ("metres per pixel (negative for image rows), not 0", -math.inf, math.inf, True),
+    "floor_m": ("the floor's height in m in the log's frame", -math.inf, math.inf, True),
+    "itf_drop_height_m": ("the ITF drop height in m (2.54)", 0.0, math.inf, False),
+    "itf_rebound_min_m": ("the ITF window's lower rebound height in m (1.35)", 0.0, math.inf, False),
+    "itf_rebound_max_m": ("the ITF window's upper rebound height in m (1.47)", 0.0, math.inf, False),
+    "itf_drop_height_tolerance_m": ("the drop-height tolerance in m (0.02)", 0.0, math.inf, True),
+}
+
+
+def _check_options(args):
+    """InputError, naming the stage's input, for an option value that is not a finite number in its range."""
+    for option, (what, low, high, low_allowed) in _OPTION_RANGES.items():
+        value = getattr(args, option, None)
+        if value is None:
+            continue
+        inside = math.isfinite(value) and (value >= low if low_allowed else value > low) and value <= high
+        if option == "scale_m_per_px":
+            inside = math.isfinite(value) and value != 0
+        if not inside:
+            flag = "--" + option.replace("_", "-")
+            raise InputError(f"{_input_name(args)}: {flag} is {value:g}; give {what}")
+    low, high = getattr(args, "itf_rebound_min_m", None), getattr(args, "itf_rebound_max_m", None)
+    if low is not None and not low < high:
+        raise InputError(f"{_input_name(args)}: the ITF rebound window is empty (--itf-rebound-min-m {low:g} is not "
+                         f"below --itf-rebound-max-m {high:g}); give the lower limit first")
 
 
 def _run(args):
@@ -172,6 +201,7 @@ def main(argv=None):
         with warnings.catch_warnings():
             if not sys.warnoptions:  # numerical warnings are for developers (python -W shows them)
                 warnings.simplefilter("ignore")
+            _check_options(args)
             _run(args)
     except InputError as error:
         message = one_line(str(error))
