@@ -19,7 +19,8 @@ import numpy as np
 import pandas as pd
 import xarray as xr
 
-from .errors import InputError
+from .errors import InputError, one_line, shown_path
+from .files import check_input_file
 from .physics import STANDARD_GRAVITY_M_S2
 
 TIME_UNITS_S = {"s": 1.0, "ms": 1e-3}
@@ -239,12 +240,29 @@ def trajectory_from_log(path, scale_m_per_px=None, gravity_m_s2=STANDARD_GRAVITY
 
 
 def read_trajectory(path):
-    """Open a trajectory NetCDF file written by ``dropfit measure``; raise InputError for a failure record."""
+    """Open a trajectory NetCDF file written by ``dropfit measure``, checked; raise InputError for a failure
+    record (with its message) and for a missing, unreadable, damaged or foreign file."""
+    name = shown_path(path)
+    with open(check_input_file(path, "trajectory (NetCDF) written by dropfit measure"), "rb") as handle:
+        head = handle.read(8)
+    if not head:
+        raise InputError(f"{name}: the file is empty (0 bytes); run dropfit measure again")
     try:
         with xr.open_dataset(path) as dataset:
             dataset = dataset.load()
-    except (OSError, ValueError) as error:
-        raise InputError(f"{path}: not a trajectory written by dropfit measure ({type(error).__name__})") from None
+    except Exception:  # noqa: BLE001 — a foreign or damaged file can make the NetCDF readers raise anything
+        what = "a damaged or truncated NetCDF file" if head.startswith((b"CDF", b"\x89HDF")) else "not a NetCDF file"
+        raise InputError(f"{name}: is {what}, not a trajectory written by dropfit measure; run dropfit measure "
+                         f"again") from None
     if dataset.attrs.get("status") == "failed":
-        raise InputError(dataset.attrs["error"])
+        raise InputError(one_line(dataset.attrs.get("error") or f"{name}: a failure record without its message"))
+    missing = [variable for variable in ("y", "quality") if variable not in dataset.data_vars]
+    if missing or "time" not in dataset.coords or dataset["y"].dims != ("time",):
+        raise InputError(f"{name}: is a NetCDF file but not a trajectory written by dropfit measure (it needs y and "
+                         f"quality over time); run dropfit measure again")
+    time = dataset["time"].values
+    if not (np.issubdtype(time.dtype, np.number) and np.issubdtype(dataset["y"].dtype, np.number)):
+        raise InputError(f"{name}: time or y is not numeric; run dropfit measure again")
+    if time.size == 0 or not np.all(np.isfinite(time)) or np.any(np.diff(time) <= 0):
+        raise InputError(f"{name}: its time is empty, not finite or not increasing; run dropfit measure again")
     return dataset
