@@ -14,6 +14,7 @@ import json
 import os
 import stat
 import tempfile
+import textwrap
 from pathlib import Path
 
 from .errors import InputError, one_line, shown, shown_path
@@ -162,8 +163,11 @@ def write_failure(path, message):
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
 
+        # the message quotes the user's text (cells, paths): drawn literally, never as mathtext ($…$), and
+        # wrapped here (matplotlib's own wrapping measures the lines as mathtext even so)
         fig = plt.figure(figsize=(6, 1.2))
-        fig.text(0.02, 0.5, "Analysis failed:\n" + message, va="center", fontsize=8, wrap=True)
+        fig.text(0.02, 0.5, "Analysis failed:\n" + textwrap.fill(message, 90), va="center", fontsize=8,
+                 parse_math=False)
         with atomic_output(path) as tmp:
             fig.savefig(tmp, format="png")
         plt.close(fig)
