@@ -149,9 +149,10 @@ def _check_fields(path, header, rows):
     if len(row) > width and all(field.strip().lstrip("-+").isdigit() for field in row if field.strip()):
         raise InputError(f"{name}: uses decimal commas (data row {first + 1}: '{shown(rows[first], 30)}' has "
                          f"{len(row)} fields under a header of {width}); save it with a decimal point")
+    advice = "every row needs one value per column" + (", a dropout an empty one (as in '0.05,')"
+                                                       if len(row) < width else "")
     raise InputError(f"{name}: data row {first + 1} has {len(row)} field{'s' if len(row) != 1 else ''} but the "
-                     f"header has {width} "
-                     f"('{shown(rows[first], 40)}'); every row needs one value per column")
+                     f"header has {width} ('{shown(rows[first], 40)}'); {advice}")
 
 
 def _check_header(path, header, rows):
