@@ -1,9 +1,17 @@
 """Shared synthetic recordings with known ground truth."""
 
+import os
+
 import numpy as np
 import pytest
 
 from dropfit.synth import sample_height_log, simulate_drop
+
+# The tests run ``dropfit`` in subprocesses from temporary directories: a relative PYTHONPATH (the
+# README's ``PYTHONPATH=src``) would point nowhere there, and they would run another installed copy.
+if os.environ.get("PYTHONPATH"):
+    os.environ["PYTHONPATH"] = os.pathsep.join(os.path.abspath(entry) if entry else entry
+                                               for entry in os.environ["PYTHONPATH"].split(os.pathsep))
 
 TENNIS = dict(drop_height_m=2.54, radius_m=0.0335, mass_kg=0.057)
 

@@ -4,7 +4,6 @@ message through the stages, and a small good run checked against the generator's
 import json
 import shutil
 import subprocess
-import sys
 from html import escape
 
 import numpy as np
@@ -15,13 +14,11 @@ import yaml
 
 from dropfit.cli import main
 
-from test_heightlog import BAD_LOGS, write_bad_log, write_no_bounce_log
+from helpers import (BAD_LOGS, CALL_TIMEOUT_S, assert_nothing_written, assert_one_line_error, dropfit, stage_args, write_bad_log,
+                     write_no_bounce_log)
 
 #: A 200 Hz, 1 mm log of 3 s of a no-drag ball gives e to a few 1e-5; the requirement is 0.002.
 E_TOL = 0.002  # 1 (dimensionless)
-#: Seconds a single ``dropfit`` call may take (imports included) before the test gives up.
-CALL_TIMEOUT_S = 120  # s
-
 SMALL_SCENARIO = {
     "seed": 5,
     "drop_height_m": 1.0,  # m
@@ -32,42 +29,6 @@ SMALL_SCENARIO = {
     "restitution": {"kind": "constant", "e0": 0.8},
     "sensor": {"sample_rate_hz": 200, "noise_m": 0.001, "offset_m": 0.1, "dropout_fraction": 0.01, "unit": "mm"},
 }
-
-
-def dropfit(*args, cwd):
-    """Run ``python -m dropfit ARGS`` in ``cwd``; return the CompletedProcess (text)."""
-    return subprocess.run([sys.executable, "-m", "dropfit", *map(str, args)], cwd=cwd, capture_output=True,
-                          text=True, timeout=CALL_TIMEOUT_S)
-
-
-def assert_one_line_error(stderr, file_name):
-    """stderr is exactly one line ``dropfit: error: …`` naming ``file_name``, without a traceback."""
-    assert "Traceback" not in stderr
-    lines = stderr.splitlines()
-    assert len(lines) == 1, stderr
-    assert lines[0].startswith("dropfit: error: ")
-    assert file_name in lines[0]
-
-
-def assert_nothing_written(directory, *names):
-    """None of the outputs ``names``, nor their temporary files ``.name.*``, exist in ``directory``."""
-    for name in names:
-        assert not (directory / name).exists()
-        assert list(directory.glob(f".{name}.*")) == []
-
-
-def stage_args(directory, source):
-    """Argument lists of the four stages after ``synth`` for the recording ``source``, outputs in ``directory``."""
-    d = directory
-    return {
-        "measure": ["measure", source, "--out", d / "trajectory.nc"],
-        "analyse": ["analyse", d / "trajectory.nc", "--impacts", d / "impacts.csv", "--flights", d / "flights.csv",
-                    "--summary", d / "analysis.json"],
-        "fit": ["fit", "--analysis", d / "analysis.json", "--impacts", d / "impacts.csv", "--out", d / "fit.json"],
-        "report": ["report", "--trajectory", d / "trajectory.nc", "--flights", d / "flights.csv",
-                   "--impacts", d / "impacts.csv", "--analysis", d / "analysis.json", "--fit", d / "fit.json",
-                   "--html", d / "report.html", "--figure", d / "report.png"],
-    }
 
 
 def test_console_script_exists(tmp_path):

@@ -6,7 +6,9 @@ import pytest
 from dropfit.analysis import analyse_bounces
 from dropfit.errors import InputError
 from dropfit.heightlog import QUALITY_DROPOUT, QUALITY_OK, read_height_log, trajectory_from_log
-from dropfit.synth import sample_height_log, simulate_drop
+from dropfit.synth import sample_height_log
+
+from helpers import BAD_LOGS, write_bad_log, write_log, write_no_bounce_log
 
 #: Noise-free logs are written with ``%.6f`` in their own unit; the worst rounding (unit m) is 5e-7 m.
 CSV_ROUNDING_TOL_M = 1e-6  # m
@@ -22,27 +24,10 @@ FLOOR_ROW_PX = 700.0  # px, image row of height 0
 UNIT_IN_M = {"m": 1.0, "cm": 1e-2, "mm": 1e-3}  # m per unit, written out independently of dropfit
 
 
-def write_log(path, frame, comment="# synthetic height log written by the tests"):
-    """Write ``frame`` as a height-log CSV, the way ``dropfit synth`` does (comment line, ``%.6f``).
-
-    Returns
-    -------
-    pathlib.Path
-        ``path``.
-    """
-    path.write_text(comment + "\n" + frame.to_csv(index=False, float_format="%.6f", na_rep=""), encoding="utf-8")
-    return path
-
-
 def noise_free_log(truth, unit, offset_m=0.0, **kwargs):
     """100 Hz, noise-free log of ``truth`` in ``unit`` (seeded, although nothing here is random)."""
     return sample_height_log(truth, np.random.default_rng(0), 100.0, noise_m=0.0, offset_m=offset_m, unit=unit,
                              **kwargs)
-
-
-def thud_truth():
-    """A ball that falls 1 m and lies still where it lands (e = 0): no bounce at all."""
-    return simulate_drop(1.0, 0.03, {"kind": "constant", "e0": 0.0})
 
 
 # --- units ----------------------------------------------------------------------------------------
@@ -182,29 +167,6 @@ def test_dropouts_stay_nan_with_quality_flag(tennis_truth, tmp_path):
 
 # --- bad input ------------------------------------------------------------------------------------
 
-#: name → (file content or None for a missing file, words the message must contain)
-BAD_LOGS = {
-    "missing": (None, ["not found"]),
-    "empty": ("", ["empty"]),
-    "only_comments": ("# dropfit height log\n# nothing was recorded\n", ["empty"]),
-    "wrong_columns": ("t,height\n0.0,1.0\n0.01,0.99\n", ["time_s", "t, height"]),
-    "no_rows": ("# header only\ntime_s,y_m\n", ["no samples"]),
-    "not_a_number": ("time_s,y_m\n0.00,1.0\n0.01,abc\n0.02,0.98\n", ["y_m", "not a number", "abc"]),
-    "repeated_time": ("time_s,y_m\n0.00,1.0\n0.01,0.99\n0.01,0.99\n0.02,0.98\n", ["does not increase"]),
-    "all_nan": ("time_s,y_m\n0.00,\n0.01,\n0.02,nan\n", ["y_m", "no valid value"]),
-    "infinite": ("time_s,y_m\n0.00,1.0\n0.01,inf\n0.02,0.98\n", ["y_m", "infinite"]),
-}
-
-
-def write_bad_log(directory, name):
-    """Write the bad log ``name`` of :data:`BAD_LOGS` (or nothing, for the missing file); return its path."""
-    content = BAD_LOGS[name][0]
-    path = directory / f"{name}.csv"
-    if content is not None:
-        path.write_text(content, encoding="utf-8")
-    return path
-
-
 def assert_one_line_about(message, path, words):
     """An InputError message: one line, starting with the file path, saying what is wrong."""
     assert "\n" not in message
@@ -220,15 +182,6 @@ def test_bad_log_raises_one_line_input_error(tmp_path, name):
     with pytest.raises(InputError) as caught:
         read_height_log(path)
     assert_one_line_about(str(caught.value), path, BAD_LOGS[name][1])
-
-
-def write_no_bounce_log(path, kind, seed=21):
-    """A 1 mm-noise log in which the ball never bounces: ``thud`` (falls, lies still) or ``held`` (never falls)."""
-    truth = thud_truth()
-    frame = sample_height_log(truth, np.random.default_rng(seed), 100.0, duration_s=2.0, noise_m=0.001)
-    if kind == "held":
-        frame["y_m"] = truth.height(0.0) + np.random.default_rng(seed + 1).normal(0.0, 0.001, len(frame))
-    return write_log(path, frame)
 
 
 @pytest.mark.parametrize("kind", ["thud", "held"])

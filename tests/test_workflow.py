@@ -11,7 +11,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from test_heightlog import write_no_bounce_log
+from helpers import write_no_bounce_log
 
 REPO = Path(__file__).resolve().parents[1]
 #: Time limit of a whole workflow run (about 25 s on a laptop).

@@ -1,4 +1,4 @@
-"""Writing outputs whole or not at all, and the failure records that let a batch carry on.
+"""Reading inputs, writing outputs whole or not at all, and the failure records that let a batch carry on.
 
 A stage that meets a bad recording inside a workflow writes a *failure record* in place of each of
 its outputs (a NetCDF or JSON file with ``status = "failed"``, a CSV whose only line is a comment,
@@ -12,10 +12,12 @@ import contextlib
 import hashlib
 import json
 import os
+import stat
 import tempfile
+import textwrap
 from pathlib import Path
 
-from .errors import InputError
+from .errors import InputError, one_line, shown, shown_path
 
 FAILED = "failed"
 _UMASK = os.umask(0)
@@ -60,14 +62,67 @@ def _nan_to_none(value):
     return value
 
 
-def read_json(path):
-    """Read a JSON file written by a dropfit stage; raise :class:`InputError` for a failure record."""
+def check_input_file(path, what="file"):
+    """Raise :class:`InputError` unless ``path`` is a regular file this process can read; return it as a Path.
+
+    ``what`` names the expected file in the advice (e.g. ``"height log or video"``).
+    """
+    path = Path(path)
     try:
-        data = json.loads(Path(path).read_text(encoding="utf-8"))
-    except (OSError, ValueError) as error:
-        raise InputError(f"{path}: cannot read this JSON file ({type(error).__name__}: {error})") from None
+        info = path.stat()
+    except FileNotFoundError:
+        raise InputError(f"{shown_path(path)}: file not found; check the path") from None
+    except OSError as error:
+        raise InputError(unreadable(path, error)) from None
+    if stat.S_ISDIR(info.st_mode):
+        raise InputError(f"{shown_path(path)}: is a directory, not a file; give the {what} inside it")
+    if not stat.S_ISREG(info.st_mode):
+        raise InputError(f"{shown_path(path)}: is not a regular file (a device, pipe or socket); give the {what}")
+    try:
+        with open(path, "rb") as handle:
+            handle.read(1)
+    except OSError as error:
+        raise InputError(unreadable(path, error)) from None
+    return path
+
+
+def unreadable(path, error):
+    """The message for a file that exists but cannot be read (``error``: the :class:`OSError`)."""
+    reason = (error.strerror or type(error).__name__).lower()
+    advice = "check that you may read it (its permissions)" if isinstance(error, PermissionError) \
+        else "check the file and the disk it is on"
+    return f"{shown_path(path)}: cannot be read ({reason}); {advice}"
+
+
+def read_bytes(path, what="file"):
+    """The bytes of the input file ``path``, with :class:`InputError` for a missing or unreadable one."""
+    path = check_input_file(path, what)
+    try:
+        return path.read_bytes()
+    except OSError as error:
+        raise InputError(unreadable(path, error)) from None
+
+
+def read_json(path, what="JSON file written by a dropfit stage"):
+    """Read a JSON file written by a dropfit stage; raise :class:`InputError` for a failure record
+    (with the record's message) and for a file that is missing, unreadable or not JSON."""
+    raw = read_bytes(path, what)
+    name = shown_path(path)
+    try:
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError:
+        raise InputError(f"{name}: is not a JSON text file (binary data); give the {what}") from None
+    try:
+        data = json.loads(text)
+    except ValueError as error:
+        if not text.strip():
+            raise InputError(f"{name}: is empty; run the stage that writes it again") from None
+        cut = not text.rstrip().endswith(("}", "]"))  # dropfit's JSON files end with their closing bracket
+        raise InputError(f"{name}: is not valid JSON ({shown(getattr(error, 'msg', error))} at line "
+                         f"{getattr(error, 'lineno', '?')}): the file is {'truncated' if cut else 'damaged'}; "
+                         f"run the stage that writes it again") from None
     if isinstance(data, dict) and data.get("status") == FAILED:
-        raise InputError(data["error"])
+        raise InputError(one_line(data.get("error") or f"{name}: a failure record without its message"))
     return data
 
 
@@ -83,6 +138,7 @@ def sha256_of(path):
 def write_failure(path, message):
     """Write a failure record carrying ``message`` to ``path``; its suffix decides the format."""
     path = Path(path)
+    message = one_line(message)
     suffix = path.suffix.lower()
     if suffix == ".json":
         write_json(path, {"status": FAILED, "error": message})
@@ -107,8 +163,11 @@ def write_failure(path, message):
         matplotlib.use("Agg")
         import matplotlib.pyplot as plt
 
+        # the message quotes the user's text (cells, paths): drawn literally, never as mathtext ($…$), and
+        # wrapped here (matplotlib's own wrapping measures the lines as mathtext even so)
         fig = plt.figure(figsize=(6, 1.2))
-        fig.text(0.02, 0.5, "Analysis failed:\n" + message, va="center", fontsize=8, wrap=True)
+        fig.text(0.02, 0.5, "Analysis failed:\n" + textwrap.fill(message, 90), va="center", fontsize=8,
+                 parse_math=False)
         with atomic_output(path) as tmp:
             fig.savefig(tmp, format="png")
         plt.close(fig)
@@ -118,22 +177,44 @@ def write_failure(path, message):
 
 def csv_failure_message(path):
     """The message of a CSV failure record at ``path``, or None if it is an ordinary CSV."""
-    with open(path, encoding="utf-8") as handle:
-        first = handle.readline()
+    with open(path, "rb") as handle:
+        first = handle.readline(1 << 16).decode("utf-8", errors="replace")
     if first.startswith(_CSV_FAILURE_PREFIX):
         return first[len(_CSV_FAILURE_PREFIX):].strip()
     return None
 
 
-def read_table(path):
-    """Read a CSV table written by a dropfit stage; raise :class:`InputError` for a failure record."""
+def read_table(path, what="CSV table written by dropfit analyse"):
+    """Read a CSV table written by a dropfit stage; raise :class:`InputError` for a failure record (with
+    its message) and for a file that is missing, unreadable, binary, truncated or has ragged rows."""
+    import io
+
     import pandas as pd
 
+    raw = read_bytes(path, what)
+    name = shown_path(path)
+    if raw.startswith(_CSV_FAILURE_PREFIX.encode()):
+        raise InputError(one_line(raw.split(b"\n", 1)[0][len(_CSV_FAILURE_PREFIX):].decode("utf-8", "replace").strip()))
     try:
-        message = csv_failure_message(path)
-        table = pd.read_csv(path, comment="#") if message is None else None
-    except (OSError, ValueError) as error:
-        raise InputError(f"{path}: cannot read this table ({type(error).__name__})") from None
-    if message is not None:
-        raise InputError(message)
-    return table
+        text = raw.decode("utf-8")
+    except UnicodeDecodeError:
+        raise InputError(f"{name}: is not a text CSV (binary data); give the {what}") from None
+    if "\x00" in text:
+        raise InputError(f"{name}: is not a text CSV (it holds NUL bytes); give the {what}")
+    lines = [line for line in text.splitlines() if line.strip() and not line.startswith("#")]
+    if not lines:
+        raise InputError(f"{name}: is empty (no header and no rows); run the stage that writes it again")
+    if lines[0].lstrip().startswith(("{", "[")):
+        raise InputError(f"{name}: is a JSON file, not a CSV table; give the {what}")
+    if not text.endswith(("\n", "\r")):  # dropfit ends every table with a line break
+        raise InputError(f"{name}: is truncated (its last line is cut short); run the stage that writes it again")
+    width = lines[0].count(",") + 1
+    for number, line in enumerate(lines[1:], start=1):
+        if line.count(",") + 1 != width:
+            raise InputError(f"{name}: row {number} has {line.count(',') + 1} fields but the header has {width}: the "
+                             f"file is damaged; run the stage that writes it again")
+    try:
+        return pd.read_csv(io.StringIO("\n".join(lines)))
+    except (ValueError, pd.errors.ParserError) as error:
+        raise InputError(f"{name}: is not a valid CSV table ({shown(str(error).splitlines()[0])}); "
+                         f"run the stage that writes it again") from None

@@ -12,14 +12,17 @@ or ``y_px``. Empty height values are dropouts. Example::
 
 from __future__ import annotations
 
+import csv
 import io
+import re
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import xarray as xr
 
-from .errors import InputError
+from .errors import InputError, one_line, shown, shown_path
+from .files import check_input_file, read_bytes
 from .physics import STANDARD_GRAVITY_M_S2
 
 TIME_UNITS_S = {"s": 1.0, "ms": 1e-3}
@@ -27,15 +30,152 @@ LENGTH_UNITS_M = {"m": 1.0, "cm": 1e-2, "mm": 1e-3}
 QUALITY_OK, QUALITY_DROPOUT = 0, 1
 #: A scale from gravity less precise than this (relative standard error) is refused.
 MAX_GRAVITY_SCALE_RELATIVE_SE = 0.01
+#: A header with more columns than this is refused before parsing (a height log has two; a
+#: million-column line took minutes to parse).
+MAX_COLUMNS = 256
+#: Heights further than this from the sensor zero, m, are refused: no drop test spans 1 km, a wrong
+#: unit or an offset (altitude) does, and the flight fits lose their precision far from zero.
+MAX_ABS_HEIGHT_M = 1000.0
+
+#: Files that are not height logs, by the first bytes: (signature, offset, what it is, what to do).
+_SIGNATURES = [
+    (b"\x89PNG", 0, "a PNG image", None), (b"GIF8", 0, "a GIF image", None), (b"\xff\xd8\xff", 0, "a JPEG image", None),
+    (b"%PDF", 0, "a PDF document", None),
+    (b"PK\x03\x04", 0, "a ZIP archive (as an .xlsx or .ods spreadsheet is)", "export the sheet as CSV"),
+    (b"\xd0\xcf\x11\xe0", 0, "an Office document (an old .xls spreadsheet?)", "export the sheet as CSV"),
+    (b"\x1a\x45\xdf\xa3", 0, "a WebM or Matroska video", "convert it to .mp4 or .avi"),
+    (b"ftyp", 4, "an MP4 or MOV video", "give it the suffix .mp4 or .mov"),
+    (b"CDF\x01", 0, "a NetCDF file, such as a trajectory", "give a trajectory to dropfit analyse"),
+    (b"CDF\x02", 0, "a NetCDF file, such as a trajectory", "give a trajectory to dropfit analyse"),
+    (b"\x89HDF", 0, "a NetCDF-4/HDF5 file", "give a trajectory to dropfit analyse"),
+    (b"\x1f\x8b", 0, "a gzip-compressed file", "decompress it first"),
+    (b"BZh", 0, "a bzip2-compressed file", "decompress it first"),
+    (b"\xfd7zXZ", 0, "an xz-compressed file", "decompress it first"),
+    (b"7z\xbc\xaf", 0, "a 7-Zip archive", "extract the CSV first"),
+    (b"Rar!", 0, "a RAR archive", "extract the CSV first"),
+    (b"\x93NUMPY", 0, "a NumPy array file", "save the data as CSV"),
+    (b"SQLite format 3", 0, "an SQLite database", "export the data as CSV"),
+    (b"OggS", 0, "an Ogg media file", None), (b"ID3", 0, "an MP3 audio file", None),
+    (b"FLV", 0, "a Flash video", "convert it to .mp4 or .avi"),
+    (b"\x30\x26\xb2\x75", 0, "a Windows Media file", "convert it to .mp4 or .avi"),
+]
+#: Suffixes of files that are not height logs and not videos dropfit reads: what each is, what to do.
+_OTHER_SUFFIXES = {
+    **dict.fromkeys([".webm", ".ogv", ".wmv", ".flv", ".mpg", ".mpeg", ".3gp", ".ts", ".mts", ".m2ts", ".vob"],
+                    ("a video in a format dropfit does not read", "convert it to .mp4 or .avi")),
+    **dict.fromkeys([".gif", ".png", ".jpg", ".jpeg", ".bmp", ".tif", ".tiff", ".webp", ".heic"],
+                    ("an image", "give the height log (CSV) or the video")),
+    **dict.fromkeys([".xlsx", ".xlsm", ".xls", ".ods", ".numbers"], ("a spreadsheet", "export the sheet as CSV")),
+    ".json": ("a JSON file", "give the height log (CSV) or the video"),
+    ".nc": ("a NetCDF file, such as a trajectory", "give a trajectory to dropfit analyse, a height log to measure"),
+    **dict.fromkeys([".zip", ".gz", ".bz2", ".xz", ".7z", ".rar", ".tar"], ("an archive", "extract the CSV first")),
+    **dict.fromkeys([".pdf", ".doc", ".docx", ".odt"], ("a document", "export the data as CSV")),
+    **dict.fromkeys([".wav", ".mp3", ".m4a", ".flac"], ("an audio file", "give the height log (CSV) or the video")),
+}
+_OTHER_SEPARATORS = {";": "semicolons", "\t": "tabs", "|": "vertical bars"}
+_DECIMAL_COMMA = re.compile(r"^\s*[-+]?\d+,\d+\s*$")
 
 
 def _column_unit(columns, quantity, units, path):
     matches = [(name, name[len(quantity) + 1:]) for name in columns
                if name.startswith(quantity + "_") and name[len(quantity) + 1:] in units]
-    if len(matches) != 1:
-        expected = " or ".join(f"{quantity}_{unit}" for unit in units)
-        raise InputError(f"{path}: expected one column {expected}, found columns {', '.join(columns) or 'none'}")
-    return matches[0]
+    if len(matches) == 1:
+        return matches[0]
+    expected = " or ".join(f"{quantity}_{unit}" for unit in units)
+    listed = ", ".join(shown(name, 30) for name in columns[:6]) + (", …" if len(columns) > 6 else "")
+    name = shown_path(path)
+    if len(matches) > 1:
+        raise InputError(f"{name}: {len(matches)} {'time' if quantity == 'time' else 'height'} columns "
+                         f"({', '.join(shown(m[0], 30) for m in matches)}); keep one of them")
+    other_unit = [column for column in columns if column.startswith(quantity + "_")]
+    if other_unit:
+        raise InputError(f"{name}: column {shown(other_unit[0], 30)} has a unit dropfit does not read; expected "
+                         f"{expected}")
+    folded = [column for column in columns if column.lower().startswith(quantity + "_")
+              and column.lower()[len(quantity) + 1:] in units]
+    hint = f" (names are case-sensitive: write {folded[0].lower()})" if folded else \
+        "; name the columns as in 'time_s,y_m' (see the README, Height logs)"
+    raise InputError(f"{name}: expected one column {expected}, found columns {listed or 'none'}{hint}")
+
+
+def _sniff(path, raw):
+    """InputError for a file that is not a text CSV at all: another format, binary data, UTF-16 text."""
+    name = shown_path(path)
+    suffix = Path(path).suffix.lower()
+    if suffix in _OTHER_SUFFIXES:
+        what, advice = _OTHER_SUFFIXES[suffix]
+        raise InputError(f"{name}: is {what}, not a height log (CSV) or a video dropfit reads "
+                         f"({', '.join(_video_suffixes())}); {advice}")
+    if not raw:
+        raise InputError(f"{name}: the file is empty (0 bytes); give the height log (CSV) with a header and samples")
+    for signature, offset, what, advice in _SIGNATURES:
+        if what and raw[offset: offset + len(signature)] == signature:
+            raise InputError(f"{name}: is {what}, not a height log (CSV) or a video with one of the suffixes "
+                             f"{', '.join(_video_suffixes())}; {advice or 'give the height log (CSV) or the video'}")
+    if raw[:4] == b"RIFF" and raw[8:12] == b"AVI ":
+        raise InputError(f"{name}: is an AVI video; give it the suffix .avi")
+    head = raw[:65536]
+    if raw.startswith((b"\xff\xfe", b"\xfe\xff")) or head.count(b"\x00") > 0.3 * len(head):
+        raise InputError(f"{name}: is UTF-16 text (or binary data), not UTF-8; save it as CSV in UTF-8")
+    control = sum(head.count(bytes([code])) for code in range(32) if code not in (9, 10, 13))
+    if b"\x00" in raw or control > 0.01 * len(head):
+        raise InputError(f"{name}: is binary data, not a text CSV; give the height log (CSV) or the video")
+
+
+def _video_suffixes():
+    from .videolog import VIDEO_SUFFIXES
+
+    return VIDEO_SUFFIXES
+
+
+def _check_fields(path, header, rows):
+    """InputError for rows whose field count differs from the header's, naming the likely cause."""
+    name = shown_path(path)
+    width = len(header)
+    limit = csv.field_size_limit()
+    try:
+        csv.field_size_limit(max(limit, max(map(len, rows), default=0) + 1))
+        fields = list(csv.reader(rows, skipinitialspace=True))
+    finally:
+        csv.field_size_limit(limit)
+    ragged = [i for i, row in enumerate(fields) if len(row) != width]
+    if not ragged:
+        return
+    if len(ragged) == len(fields) and all(len(row) == width + 1 and not row[-1].strip() for row in fields):
+        raise InputError(f"{name}: every data row ends with a comma ({width + 1} fields under a header of {width}); "
+                         f"remove the trailing commas, or end the header with one too")
+    first = ragged[0]
+    row = fields[first]
+    if len(row) > width and all(field.strip().lstrip("-+").isdigit() for field in row if field.strip()):
+        raise InputError(f"{name}: uses decimal commas (data row {first + 1}: '{shown(rows[first], 30)}' has "
+                         f"{len(row)} fields under a header of {width}); save it with a decimal point")
+    advice = "every row needs one value per column" + (", a dropout an empty one (as in '0.05,')"
+                                                       if len(row) < width else "")
+    raise InputError(f"{name}: data row {first + 1} has {len(row)} field{'s' if len(row) != 1 else ''} but the "
+                     f"header has {width} ('{shown(rows[first], 40)}'); {advice}")
+
+
+def _check_header(path, header, rows):
+    """InputError for a header line that cannot be a height log's: too long, another separator, numbers."""
+    name = shown_path(path)
+    if header.count(",") + 1 > MAX_COLUMNS or len(header) > 64 * MAX_COLUMNS:
+        raise InputError(f"{name}: its header line has {header.count(',') + 1} columns and {len(header)} characters: "
+                         f"not the header of a height log (a time and a height column); give the height log (CSV)")
+    if "," in header:
+        return
+    sample = rows[0] if rows else ""
+    for separator, words in _OTHER_SEPARATORS.items():
+        if separator in header:
+            if any(_DECIMAL_COMMA.match(field) for field in sample.split(separator)):
+                raise InputError(f"{name}: uses {words} between the columns and decimal commas; save it as CSV with "
+                                 f"commas between the columns and a decimal point")
+            raise InputError(f"{name}: the columns are separated by {words}, not commas; save it as CSV with commas "
+                             f"between the columns")
+    tokens, values = header.split(), sample.split()
+    named = any(token.startswith(("time_", "y_")) for token in tokens)
+    if len(tokens) > 1 and (named or (len(values) == len(tokens) and all(map(_is_number, values)))):
+        raise InputError(f"{name}: the columns are separated by spaces, not commas; save it as CSV with commas "
+                         f"between the columns")
 
 
 def read_height_log(path):
@@ -55,49 +195,91 @@ def read_height_log(path):
     Raises
     ------
     InputError
-        Missing or empty file, wrong columns, values that are not numbers, time not strictly
-        increasing or not finite, no valid height at all.
+        Missing, unreadable or empty file, a file of another kind (an image, a spreadsheet, UTF-16
+        or binary data), another separator or decimal commas, rows of the wrong length, wrong
+        columns, values that are not numbers, time not strictly increasing or not finite, no valid
+        height at all.
     """
     path = Path(path)
-    if not path.is_file():
-        raise InputError(f"{path}: file not found")
-    text = path.read_text(encoding="utf-8", errors="replace")
-    body = "\n".join(line for line in text.splitlines() if line.strip() and not line.lstrip().startswith("#"))
-    if not body:
-        raise InputError(f"{path}: the file is empty (no header and no samples)")
+    raw = read_bytes(path, "height log (CSV) or video")
+    _sniff(path, raw)
+    name = shown_path(path)
+    text = raw.decode("utf-8", errors="replace").removeprefix("\ufeff")  # a spreadsheet's "CSV UTF-8" has a BOM
+    lines = [line for line in text.splitlines() if line.strip() and not line.lstrip().startswith("#")]
+    if not lines:
+        raise InputError(f"{name}: the file is empty (no header and no samples)")
+    first = lines[0].lstrip()
+    if first.startswith("<"):
+        raise InputError(f"{name}: is an HTML or XML document, not a height log (CSV); give the height log")
+    if first.startswith(("{", "[")):
+        raise InputError(f"{name}: is a JSON file, not a height log (CSV); give the height log")
+    _check_header(path, lines[0], lines[1:])
+    header = [field.strip().strip('"').strip() for field in lines[0].split(",")]
+    repeated = sorted({field for field in header if field and header.count(field) > 1})
+    if repeated:
+        raise InputError(f"{name}: the header names column {shown(repeated[0], 30)} twice; keep one of them")
+    if all(_is_number(field) for field in header if field):
+        raise InputError(f"{name}: has no header: its first line holds numbers ('{shown(lines[0], 30)}'); add a "
+                         f"header line such as time_s,y_m")
+    _check_fields(path, header, lines[1:])
     try:
-        table = pd.read_csv(io.StringIO(body), skipinitialspace=True)
-    except pd.errors.ParserError as error:
-        raise InputError(f"{path}: not a valid CSV table ({str(error).splitlines()[0]})") from None
-    table.columns = [str(name).strip() for name in table.columns]
-    time_column, time_unit = _column_unit(table.columns, "time", TIME_UNITS_S, path)
-    height_column, height_unit = _column_unit(table.columns, "y", {**LENGTH_UNITS_M, "px": None}, path)
+        table = pd.read_csv(io.StringIO("\n".join(lines)), skipinitialspace=True, index_col=False, dtype=str,
+                            keep_default_na=False)
+    except (pd.errors.ParserError, ValueError) as error:
+        raise InputError(f"{name}: not a valid CSV table ({shown(str(error).splitlines()[0])})") from None
+    table.columns = [str(name_).strip() for name_ in table.columns]
+    time_column, time_unit = _column_unit(list(table.columns), "time", TIME_UNITS_S, path)
+    height_column, height_unit = _column_unit(list(table.columns), "y", {**LENGTH_UNITS_M, "px": None}, path)
     if table.empty:
-        raise InputError(f"{path}: the header is there but there are no samples")
+        raise InputError(f"{name}: the header is there but there are no samples")
     time = _numeric(table[time_column], time_column, path) * TIME_UNITS_S[time_unit]
     height = _numeric(table[height_column], height_column, path)
     if not np.all(np.isfinite(time)):
         row = int(np.flatnonzero(~np.isfinite(time))[0])
-        raise InputError(f"{path}: time is missing or not finite in data row {row + 1}")
+        raise InputError(f"{name}: time is missing or not finite in data row {row + 1}")
     steps = np.diff(time)
     if np.any(steps <= 0):
         row = int(np.flatnonzero(steps <= 0)[0])
-        raise InputError(f"{path}: time does not increase at data row {row + 2} "
+        raise InputError(f"{name}: time does not increase at data row {row + 2} "
                          f"({time[row]:g} s then {time[row + 1]:g} s); sort the log or remove repeated rows")
     if np.any(np.isinf(height)):
         row = int(np.flatnonzero(np.isinf(height))[0])
-        raise InputError(f"{path}: column {height_column} is infinite in data row {row + 1}")
+        raise InputError(f"{name}: column {height_column} is infinite in data row {row + 1}")
     if not np.any(np.isfinite(height)):
-        raise InputError(f"{path}: column {height_column} has no valid value (all empty or NaN)")
+        raise InputError(f"{name}: column {height_column} has no valid value (all empty or NaN)")
     return time, height, height_unit
 
 
+#: What pandas' CSV reader takes for a missing value by default: a dropout.
+_MISSING = {"", "#N/A", "#N/A N/A", "#NA", "-1.#IND", "-1.#QNAN", "-NaN", "-nan", "1.#IND", "1.#QNAN", "<NA>", "N/A",
+            "NA", "NULL", "NaN", "None", "n/a", "nan", "null"}
+
+
+def _is_number(text):
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
 def _numeric(column, name, path):
-    values = pd.to_numeric(column, errors="coerce").to_numpy(dtype=float)
-    bad = np.flatnonzero(np.isnan(values) & column.notna().to_numpy())
+    texts = column.str.strip()
+    missing = texts.isin(_MISSING).to_numpy()
+    values = pd.to_numeric(texts.where(~missing), errors="coerce").to_numpy(dtype=float)
+    bad = np.flatnonzero(np.isnan(values) & ~missing)
     if bad.size:
-        raise InputError(f"{path}: column {name} has a value that is not a number in data row {bad[0] + 1} "
-                         f"({column.iloc[bad[0]]!r})")
+        value = str(texts.iloc[bad[0]])
+        where = f"in data row {bad[0] + 1}"
+        if value == name:
+            raise InputError(f"{shown_path(path)}: the header appears again {where} (two logs joined into one?); "
+                             f"keep one log per file")
+        if _DECIMAL_COMMA.match(value):
+            raise InputError(f"{shown_path(path)}: uses decimal commas (column {name} {where}: '{value}'); save it "
+                             f"with a decimal point")
+        hint = " (the file is not UTF-8 text: save it as UTF-8)" if "\ufffd" in value else ""
+        raise InputError(f"{shown_path(path)}: column {name} has a value that is not a number {where} "
+                         f"('{shown(value)}'){hint}")
     return values
 
 
@@ -168,11 +350,11 @@ def flight_acceleration(time_s, height_px, source="log"):
     edges = np.concatenate([[found.release - 1], found.impacts])
     pieces = [(a + 1, b) for a, b in zip(edges[:-1], edges[1:]) if b - a - 1 >= MIN_SAMPLES_PER_FLIGHT]
     if not pieces:
-        raise InputError(f"{source}: cannot calibrate pixels from gravity: no flight with at least "
+        raise InputError(f"{shown_path(source)}: cannot calibrate pixels from gravity: no flight with at least "
                          f"{MIN_SAMPLES_PER_FLIGHT} samples between bounces; give scale_m_per_px")
     fit = shared_acceleration_with_drag([(found.time[a:b], found.height[a:b]) for a, b in pieces])
     if fit.acceleration <= 0:
-        raise InputError(f"{source}: cannot calibrate pixels from gravity: the flights do not curve downwards")
+        raise InputError(f"{shown_path(source)}: cannot calibrate pixels from gravity: the flights do not curve downwards")
     return sign, fit
 
 
@@ -190,7 +372,7 @@ def scale_from_gravity(time_s, height_px, gravity_m_s2=STANDARD_GRAVITY_M_S2, so
     scale = gravity_m_s2 / fit.acceleration
     relative_se = fit.acceleration_se / fit.acceleration
     if relative_se > MAX_GRAVITY_SCALE_RELATIVE_SE:
-        raise InputError(f"{source}: cannot calibrate pixels from gravity: the flights give the scale only to "
+        raise InputError(f"{shown_path(source)}: cannot calibrate pixels from gravity: the flights give the scale only to "
                          f"{100 * relative_se:.1f} %; give scale_m_per_px")
     return sign * scale, scale * relative_se
 
@@ -214,30 +396,86 @@ def trajectory_from_log(path, scale_m_per_px=None, gravity_m_s2=STANDARD_GRAVITY
     extra = dict(attrs or {})
     extra["log_unit"] = unit
     if unit != "px":
-        return make_trajectory(time, height * LENGTH_UNITS_M[unit], path, f"unit conversion from {unit}", extra)
+        return make_trajectory(time, _checked(height * LENGTH_UNITS_M[unit], path, extra), path,
+                               f"unit conversion from {unit}", extra)
     if scale_m_per_px is not None:
         if scale_m_per_px == 0:
-            raise InputError(f"{path}: scale_m_per_px is 0; give metres per pixel (negative for image rows)")
+            raise InputError(f"{shown_path(path)}: scale_m_per_px is 0; give metres per pixel (negative for image rows)")
         heights = height * scale_m_per_px
         finite = heights[np.isfinite(heights)]
         if finite[0] < np.median(finite):
-            raise InputError(f"{path}: with scale_m_per_px = {scale_m_per_px:g} the ball starts low and rises: "
-                             f"if the pixel axis points down (image rows), give a negative scale")
+            raise InputError(f"{shown_path(path)}: with scale_m_per_px = {scale_m_per_px:g} the ball starts low and "
+                             f"rises: if the pixel axis points down (image rows), give a negative scale")
         extra["scale_m_per_px"] = float(scale_m_per_px)
-        return make_trajectory(time, heights, path, "given scale in m/px", extra)
+        return make_trajectory(time, _checked(heights, path, extra), path, "given scale in m/px", extra)
     scale, scale_se = scale_from_gravity(time, height, gravity_m_s2, source=str(path))
     extra.update(scale_m_per_px=float(scale), scale_se_m_per_px=float(scale_se),
                  scale_rel_se=float(scale_se / abs(scale)))
-    return make_trajectory(time, height * scale, path, "scale from gravity (flight curvature)", extra)
+    return make_trajectory(time, _checked(height * scale, path, extra), path, "scale from gravity (flight curvature)",
+                           extra)
+
+
+def _checked(height_m, path, attrs):
+    """``height_m``, after checking that no height lies absurdly far from the sensor zero and that a given
+    floor (``attrs["floor_m"]``) is where the ball can touch it."""
+    finite = height_m[np.isfinite(height_m)]
+    farthest = float(np.max(np.abs(finite)))
+    if farthest > MAX_ABS_HEIGHT_M:
+        raise InputError(f"{shown_path(path)}: heights reach {farthest:.3g} m from the sensor zero (more than "
+                         f"{MAX_ABS_HEIGHT_M:g} m); check the height unit in the column name, or subtract the offset")
+    check_floor(finite, attrs, path)
+    return height_m
+
+
+def check_floor(height_m, attrs, path):
+    """Raise InputError if a given floor height (``attrs["floor_m"]``, m, in the trajectory's frame) is far
+    from where the ball's centre comes down: above its lowest height, or far below it (the radius added).
+
+    The margins are coarse: they catch a floor in the wrong unit or frame, not one a few mm off (the
+    analysis checks that one against the flights).
+    """
+    floor = attrs.get("floor_m")
+    if floor is None or height_m.size == 0:
+        return
+    radius = attrs.get("ball_radius_m") or 0.0
+    span = float(np.ptp(height_m))
+    low = float(np.partition(height_m, min(2, height_m.size - 1))[min(2, height_m.size - 1)])  # past two spikes
+    lowest_possible = floor + 0.5 * radius  # the centre of a ball flattened to half its radius
+    if low < lowest_possible - 0.005 - 0.01 * span:
+        raise InputError(f"{shown_path(path)}: the ball's centre comes down to {low:.4g} m, below the floor "
+                         f"(floor_m = {floor:g} m) plus half the ball's radius ({radius:g} m); give floor_m as the "
+                         f"floor's height in the log's frame, m, and check the radius")
+    gap = low - (floor + radius)
+    if gap > max(0.5 * span, 0.05):
+        raise InputError(f"{shown_path(path)}: the ball's centre stays {gap:.3g} m above the contact height (floor_m "
+                         f"{floor:g} m + radius {radius:g} m) at its lowest; check floor_m (the floor's height in "
+                         f"the log's frame, m) and the ball radius")
 
 
 def read_trajectory(path):
-    """Open a trajectory NetCDF file written by ``dropfit measure``; raise InputError for a failure record."""
+    """Open a trajectory NetCDF file written by ``dropfit measure``, checked; raise InputError for a failure
+    record (with its message) and for a missing, unreadable, damaged or foreign file."""
+    name = shown_path(path)
+    with open(check_input_file(path, "trajectory (NetCDF) written by dropfit measure"), "rb") as handle:
+        head = handle.read(8)
+    if not head:
+        raise InputError(f"{name}: the file is empty (0 bytes); run dropfit measure again")
     try:
         with xr.open_dataset(path) as dataset:
             dataset = dataset.load()
-    except (OSError, ValueError) as error:
-        raise InputError(f"{path}: not a trajectory written by dropfit measure ({type(error).__name__})") from None
+    except Exception:  # noqa: BLE001 — a foreign or damaged file can make the NetCDF readers raise anything
+        what = "a damaged or truncated NetCDF file" if head.startswith((b"CDF", b"\x89HDF")) else "not a NetCDF file"
+        raise InputError(f"{name}: is {what}, not a trajectory written by dropfit measure; run dropfit measure "
+                         f"again") from None
     if dataset.attrs.get("status") == "failed":
-        raise InputError(dataset.attrs["error"])
+        raise InputError(one_line(dataset.attrs.get("error") or f"{name}: a failure record without its message"))
+    missing = [variable for variable in ("y", "quality") if variable not in dataset.data_vars]
+    if missing or "time" not in dataset.coords or dataset["y"].dims != ("time",):
+        raise InputError(f"{name}: is a NetCDF file but not a trajectory written by dropfit measure (it needs y and "
+                         f"quality over time); run dropfit measure again")
+    time = dataset["time"].values
+    if not (np.issubdtype(time.dtype, np.number) and np.issubdtype(dataset["y"].dtype, np.number)):
+        raise InputError(f"{name}: time or y is not numeric; run dropfit measure again")
+    if time.size == 0 or not np.all(np.isfinite(time)) or np.any(np.diff(time) <= 0):
+        raise InputError(f"{name}: its time is empty, not finite or not increasing; run dropfit measure again")
     return dataset

@@ -20,6 +20,7 @@ import matplotlib.pyplot as plt  # noqa: E402  (must follow matplotlib.use)
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
+from .errors import shown  # noqa: E402
 from .files import atomic_output  # noqa: E402
 from .physics import flight_height  # noqa: E402
 from .restitution import Z95  # noqa: E402
@@ -206,7 +207,9 @@ def _figure_png(trajectory, flights, impacts, analysis, fit):
     ax_res = fig.add_subplot(grid[1, :], sharex=ax_traj)
     ax_e = fig.add_subplot(grid[2, 0])
     ax_h = fig.add_subplot(grid[2, 1])
-    fig.suptitle(f"dropfit: {fit.get('sample_id') or trajectory.attrs.get('sample_id', '')}", fontsize=14)
+    # the sample id is the user's text: drawn literally (a "$" must not start mathtext) and short
+    fig.suptitle(f"dropfit: {shown(fit.get('sample_id') or trajectory.attrs.get('sample_id', ''))}", fontsize=14,
+                 parse_math=False)
 
     ax_traj.plot(t, height, ".", ms=2.5, color="0.35", label="measured")
     for index, (grid_t, grid_y) in enumerate(curves):
@@ -298,17 +301,18 @@ def _video_frame_html(trajectory):
     attrs = trajectory.attrs
     if "video" not in attrs or "x" not in trajectory:
         return ""
-    import cv2
+    from .opencv import cv2, decoder_output_silenced
 
     scale = float(attrs["scale_m_per_px"])
     tracked = np.flatnonzero(np.isfinite(trajectory["y"].values))
     # the frame where the ball is highest after release shows it clear of hand and floor
     index = int(tracked[len(tracked) // 3 + int(np.argmax(trajectory["y"].values[tracked[len(tracked) // 3:]]))]) \
         if tracked.size else 0
-    capture = cv2.VideoCapture(str(attrs["video"]))
-    capture.set(cv2.CAP_PROP_POS_FRAMES, index)
-    ok, frame = capture.read()
-    capture.release()
+    with decoder_output_silenced():
+        capture = cv2.VideoCapture(str(attrs["video"]))
+        capture.set(cv2.CAP_PROP_POS_FRAMES, index)
+        ok, frame = capture.read()
+        capture.release()
     if not ok:
         return f"<p>The video frame {index} could not be read back for the overlay.</p>"
     x_px = float(trajectory["x"].values[index]) / scale
@@ -616,7 +620,7 @@ _VERDICT_COLOURS = {"pass": "tab:green", "fail": "tab:red", "indeterminate": "ta
 
 def _ball_label(ball):
     """Tick label of a ball: its id, and how many of its drops failed."""
-    return ball.ball_id + (f"\n({ball.n_failed} failed)" if ball.n_failed else "")
+    return shown(ball.ball_id, 30) + (f"\n({ball.n_failed} failed)" if ball.n_failed else "")
 
 
 def qc_chart_png(batch, recordings, balls, statistics, window):
@@ -671,11 +675,12 @@ def qc_chart_png(batch, recordings, balls, statistics, window):
         ax.errorbar([], [], yerr=[], fmt="D", ms=7, color=colour, label=f"ball mean, 95 % interval: {verdict}")
     if measured.empty:
         ax.text(0.5, 0.5, "no ball of this batch has an ITF rebound height", transform=ax.transAxes, ha="center")
-    ax.set_xticks(range(len(measured)), [_ball_label(ball) for ball in measured.itertuples()])
+    # ball ids and the batch name are the user's text: drawn literally, never as mathtext
+    ax.set_xticks(range(len(measured)), [_ball_label(ball) for ball in measured.itertuples()], parse_math=False)
     ax.set_xlim(-0.6, len(measured) - 0.4)
     ax.set_xlabel("ball")
     ax.set_ylabel(f"rebound height from a {cm * window['drop_height_m']:.0f} cm drop (cm)")
-    ax.set_title(f"batch {batch}: ITF rebound control chart", loc="left")
+    ax.set_title(f"batch {shown(batch)}: ITF rebound control chart", loc="left", parse_math=False)
     ax.grid(axis="y", alpha=0.3)
     ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=2, fontsize=9, frameon=False)
     return _png_bytes(fig)

@@ -15,9 +15,10 @@ import yaml
 from . import __version__, video_limits
 from .analysis import NOMINAL_DRAG_RELATIVE_SE, analyse_bounces
 from .contact import fit_linear_contact
-from .errors import InputError
-from .files import atomic_output, read_json, read_table, sha256_of, write_json, write_text
+from .errors import InputError, one_line
+from .files import atomic_output, sha256_of, write_json, write_text
 from .heightlog import read_trajectory, trajectory_from_log
+from .inputs import read_analysis, read_fit, read_flights, read_impacts, read_report_analysis
 from .physics import SPHERE_DRAG_COEFFICIENT, STANDARD_GRAVITY_M_S2, drag_parameter, speed_below_apex
 from .restitution import (ITF_DROP_HEIGHT_M, ITF_REBOUND_MAX_M, ITF_REBOUND_MIN_M, constant_restitution, estimate,
                           itf_rebound, itf_verdict, theory_checks)
@@ -132,8 +133,9 @@ def fit(analysis_path, impacts_path, out_path, ball_type=None, itf_drop_height_m
         itf_rebound_min_m=ITF_REBOUND_MIN_M, itf_rebound_max_m=ITF_REBOUND_MAX_M, itf_drop_height_tolerance_m=0.02):
     """Impacts → fit result JSON: e with uncertainty, theory checks, ITF verdict, provenance."""
     # JSON has no NaN: the analysis wrote missing numbers (no rest seen, BIC of a model not tried) as null
-    summary = {key: float("nan") if value is None else value for key, value in read_json(analysis_path).items()}
-    write_json(out_path, fit_result(summary, read_table(impacts_path), ball_type, itf_drop_height_m, itf_rebound_min_m,
+    summary = read_analysis(analysis_path)
+    impacts = read_impacts(impacts_path, summary, analysis_path)
+    write_json(out_path, fit_result(summary, impacts, ball_type, itf_drop_height_m, itf_rebound_min_m,
                                     itf_rebound_max_m, itf_drop_height_tolerance_m))
 
 
@@ -303,8 +305,8 @@ def report(trajectory_path, flights_path, impacts_path, analysis_path, fit_path,
     """Per-recording HTML report and PNG figure."""
     from .report import write_recording_report
 
-    write_recording_report(read_trajectory(trajectory_path), read_table(flights_path), read_table(impacts_path),
-                           read_json(analysis_path), read_json(fit_path), html_path, figure_path)
+    write_recording_report(read_trajectory(trajectory_path), read_flights(flights_path), read_impacts(impacts_path),
+                           read_report_analysis(analysis_path), read_fit(fit_path), html_path, figure_path)
 
 
 def _read_fits(fit_paths):
@@ -313,11 +315,9 @@ def _read_fits(fit_paths):
     rows = []
     for path in fit_paths:
         try:
-            data = read_json(path)
-            if not (isinstance(data, dict) and "restitution" in data):
-                raise InputError(f"{path}: not a dropfit fit result (no 'restitution' section)")
+            data = read_fit(path)
         except InputError as error:  # a failure record, or a file that is not a fit result
-            data = {"status": "failed", "error": str(error), "sample_id": Path(path).parent.name}
+            data = {"status": "failed", "error": one_line(str(error)), "sample_id": Path(path).parent.name}
         data.setdefault("sample_id", Path(path).parent.name)
         rows.append(data)
     return rows

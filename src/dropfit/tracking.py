@@ -91,14 +91,14 @@ import queue
 import threading
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
-from pathlib import Path
 
-import cv2
 import numpy as np
 import pandas as pd
 
-from .errors import InputError
+from .errors import InputError, shown_path
+from .files import check_input_file
 from .numerics import least_squares_covariance, robust_sigma
+from .opencv import cv2, decoder_output_silenced
 
 QUALITY_OK = "ok"
 QUALITY_PARTIAL = "partial"
@@ -812,7 +812,8 @@ class BallTracker:
 
 def _found_or_raise(table, source):
     if not table["quality"].isin([QUALITY_OK, QUALITY_PARTIAL, QUALITY_OCCLUDED]).any():
-        raise InputError(f"{source}: the ball was never found (no round foreground blob in {len(table)} frames)")
+        raise InputError(f"{shown_path(source)}: the ball was never found (no round foreground blob in {len(table)} "
+                         f"frames): it must stand out from the background and move")
     return table
 
 
@@ -999,7 +1000,9 @@ def video_samples(path, frame_count, samples):
     """Grey frames spread over a video file and their indices: by seeking (cheap for MJPG AVI)."""
     if frame_count >= 1:
         indices = _spread(int(frame_count), samples)
-        for backend in (cv2.CAP_OPENCV_MJPEG, cv2.CAP_ANY):
+        # OpenCV's own MJPEG reader seeks cheaply, but reads only AVI files (asked for another, it warns)
+        backends = (cv2.CAP_OPENCV_MJPEG, cv2.CAP_ANY) if str(path).lower().endswith(".avi") else (cv2.CAP_ANY,)
+        for backend in backends:
             capture = cv2.VideoCapture(str(path), backend)
             try:
                 if capture.isOpened():
@@ -1056,7 +1059,7 @@ def _frame_times(stamps_ms, container_fps, capture_fps, path):
     if capture_fps:
         return index / capture_fps, f"frame index / capture_fps {capture_fps:g}"
     if nominal is None:
-        raise InputError(f"{path}: the video has neither frame time stamps nor a frame rate; pass capture_fps")
+        raise InputError(f"{shown_path(path)}: the video has neither frame time stamps nor a frame rate; pass capture_fps")
     return index / nominal, f"frame index / container rate {nominal:g} fps"
 
 
@@ -1097,53 +1100,101 @@ def track_video(path, capture_fps=None, expected_radius_px=None, *, background_s
     InputError
         For a missing, unreadable or corrupt file, a file without frames, or a ball never found.
     """
-    path = Path(path)
-    if not path.is_file():
-        raise InputError(f"{path}: file not found")
+    path = check_input_file(path, "video")
+    name = shown_path(path)
     if capture_fps is not None and not capture_fps > 0:
-        raise InputError(f"{path}: capture_fps must be positive, got {capture_fps}")
-    capture = cv2.VideoCapture(str(path))
-    if not capture.isOpened():
-        raise InputError(f"{path}: cannot be opened as a video (unreadable or corrupt file)")
-    container_fps = float(capture.get(cv2.CAP_PROP_FPS))
-    frame_count = float(capture.get(cv2.CAP_PROP_FRAME_COUNT))
-    ok, first = capture.read()
-    if not ok:
-        capture.release()
-        raise InputError(f"{path}: no frame could be decoded (empty or corrupt video)")
-    stamps = [capture.get(cv2.CAP_PROP_POS_MSEC)]
-    # decode in a second thread (OpenCV releases the GIL) while the background is estimated and
-    # the ball tracked in this one
-    reader = _FrameReader(capture)
-    reader.start()
-    try:
-        indices, samples = video_samples(path, frame_count, background_samples)
-        if not samples or samples[0].shape[:2] != first.shape[:2]:
-            raise InputError(f"{path}: the frames could not be decoded consistently (corrupt video)")
-        background = estimate_background(samples)
-        tracker = BallTracker(background, expected_radius_px)
-        rows = [tracker.update(first)]
-        for frame, stamp in reader:
-            stamps.append(stamp)
-            rows.append(tracker.update(frame))
-    finally:
-        reader.close()
-        capture.release()
-    if indices[-1] < len(rows):
-        frame_count_decoded = len(rows)
+        raise InputError(f"{name}: capture_fps must be positive, got {capture_fps}")
+    _check_video_file(path)
+    with decoder_output_silenced():  # FFmpeg's and OpenCV's complaints about damaged frames stay off the terminal
+        capture = cv2.VideoCapture(str(path))
+        if not capture.isOpened():
+            raise InputError(f"{name}: cannot be opened as a video: the file is damaged or not a video (a truncated "
+                             f".mp4 or .mov lacks its index, which is written last); copy or export it again")
+        container_fps = float(capture.get(cv2.CAP_PROP_FPS))
+        frame_count = float(capture.get(cv2.CAP_PROP_FRAME_COUNT))
+        ok, first = capture.read()
+        if not ok:
+            capture.release()
+            declared = f" of the {frame_count:.0f} its container declares" if frame_count >= 1 else ""
+            raise InputError(f"{name}: no frame{declared} could be decoded: the video is empty, truncated or "
+                             f"corrupt; copy or export it again")
+        stamps = [capture.get(cv2.CAP_PROP_POS_MSEC)]
+        # decode in a second thread (OpenCV releases the GIL) while the background is estimated and
+        # the ball tracked in this one
+        reader = _FrameReader(capture)
+        reader.start()
+        try:
+            indices, samples = video_samples(path, frame_count, background_samples)
+            if not samples or samples[0].shape[:2] != first.shape[:2]:
+                raise InputError(f"{name}: the frames could not be decoded consistently (corrupt video)")
+            background = estimate_background(samples)
+            tracker = BallTracker(background, expected_radius_px)
+            rows = [tracker.update(first)]
+            for frame, stamp in reader:
+                stamps.append(stamp)
+                rows.append(tracker.update(frame))
+        finally:
+            reader.close()
+            capture.release()
+        check_frame_count(len(rows), frame_count, path)
+        if len(rows) < MIN_FRAMES:
+            raise InputError(f"{name}: the video has only {len(rows)} frame{'s' if len(rows) > 1 else ''}; a drop "
+                             f"test needs at least {MIN_FRAMES}, and tens in each flight")
+        if indices[-1] < len(rows):
+            frame_count_decoded = len(rows)
 
-        def track_again(clean):
-            rows_again = _track_decoded(path, clean, expected_radius_px)
-            if len(rows_again) != frame_count_decoded:
-                raise InputError(f"{path}: the frames could not be decoded consistently (corrupt video)")
-            return rows_again
+            def track_again(clean):
+                rows_again = _track_decoded(path, clean, expected_radius_px)
+                if len(rows_again) != frame_count_decoded:
+                    raise InputError(f"{name}: the frames could not be decoded consistently (corrupt video)")
+                return rows_again
 
-        rows = _track_without_ball_in_background(track_again, samples, indices, background, rows)
+            rows = _track_without_ball_in_background(track_again, samples, indices, background, rows)
     times, how = _frame_times(stamps, container_fps, capture_fps, path)
     table = _table(rows, times)
     table.attrs.update(source=str(path), container_fps=container_fps, capture_fps=capture_fps,
                        time_source=how, frame_count_header=frame_count, noise_grey=background.noise_grey)
     return _found_or_raise(table, path)
+
+
+#: A video with fewer frames is refused before its ball is looked for (its background would be the ball).
+MIN_FRAMES = 10
+#: Frames a container may declare beyond those decoded before the video counts as truncated: a
+#: count estimated from the duration (Matroska) can be a frame or two off.
+FRAME_COUNT_SLACK = 2
+FRAME_COUNT_SLACK_FRACTION = 0.02
+
+#: Files that are not videos, by their first bytes: (signature, what it is).
+_NOT_VIDEOS = [(b"\x89PNG", "a PNG image"), (b"\xff\xd8\xff", "a JPEG image"), (b"GIF8", "a GIF image"),
+               (b"%PDF", "a PDF document"), (b"PK\x03\x04", "a ZIP archive or spreadsheet"),
+               (b"CDF\x01", "a NetCDF file"), (b"\x89HDF", "a NetCDF-4/HDF5 file")]
+
+
+def _check_video_file(path):
+    """InputError for a video file that is empty, or plainly another kind of file (an image, a text file)."""
+    name = shown_path(path)
+    with open(path, "rb") as handle:
+        head = handle.read(4096)
+    if not head:
+        raise InputError(f"{name}: the file is empty (0 bytes): not a video; copy or export it again")
+    for signature, what in _NOT_VIDEOS:
+        if head.startswith(signature):
+            raise InputError(f"{name}: is {what}, not a video; give the video file")
+    try:
+        text = head.decode("utf-8")
+    except UnicodeDecodeError:
+        return
+    if not any(ord(char) < 32 and char not in "\t\r\n" for char in text):
+        raise InputError(f"{name}: is a text file, not a video (a height log must have the suffix .csv); give the "
+                         f"video file")
+
+
+def check_frame_count(decoded, declared, path):
+    """Raise InputError if fewer frames were decoded than the container declares (a truncated or
+    damaged video), allowing :data:`FRAME_COUNT_SLACK` frames for a count estimated from the duration."""
+    if declared >= 1 and decoded < declared - max(FRAME_COUNT_SLACK, FRAME_COUNT_SLACK_FRACTION * declared):
+        raise InputError(f"{shown_path(path)}: the video is truncated or corrupt: only {decoded} of the "
+                         f"{declared:.0f} frames its container declares could be decoded; copy or export it again")
 
 
 class _FrameReader(threading.Thread):

@@ -31,7 +31,7 @@ import dataclasses
 import numpy as np
 
 from .analysis import estimate_noise
-from .errors import InputError
+from .errors import InputError, shown_path
 from .tracking import CLEAN_QUALITIES, QUALITY_DUPLICATE
 
 #: Smallest tracked ball radius, px. Sweep: a ball drawn with radius 1 px is never found and one of
@@ -118,7 +118,7 @@ def check_recording(table, source):
     """
     violations = recording_violations(recording_measures(table))
     if violations:
-        raise InputError(f"{source}: not analysable: {'; '.join(violations)}")
+        raise InputError(f"{shown_path(source)}: not analysable: {'; '.join(violations)}")
 
 
 def flight_violation(impacts_row, frames_before, frames_after):
@@ -195,7 +195,7 @@ def select_resolved_impacts(analysis, source, frame_interval_s):
                for (_, row), before, after in zip(analysis.impacts.iterrows(), *spans)]
     kept = next((i for i, reason in enumerate(reasons) if reason is not None), len(reasons))
     if kept == 0:
-        raise InputError(f"{source}: not analysable: {reasons[0]}")
+        raise InputError(f"{shown_path(source)}: not analysable: {reasons[0]}")
     n = len(reasons)
     pair = np.r_[0:kept, n: n + kept]  # e_1…e_kept and their contact times
     summary = dict(analysis.summary, n_impacts=kept,

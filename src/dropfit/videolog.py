@@ -21,8 +21,8 @@ import numpy as np
 
 from . import video_limits
 from .calibration import SCALE_PRECEDENCE, choose_scale, infer_capture_rate, ruler_scale
-from .errors import InputError
-from .heightlog import flight_acceleration, make_trajectory, scale_from_gravity
+from .errors import InputError, shown_path
+from .heightlog import check_floor, flight_acceleration, make_trajectory, scale_from_gravity
 from .numerics import robust_sigma
 from .physics import STANDARD_GRAVITY_M_S2
 
@@ -69,14 +69,14 @@ def video_background(path, samples=7):
     numpy.ndarray or None
         Grey levels (height, width), or None if no frame could be read.
     """
-    import cv2
-
+    from .opencv import cv2, decoder_output_silenced
     from .tracking import estimate_background, video_samples
 
-    capture = cv2.VideoCapture(str(path))
-    count = int(capture.get(cv2.CAP_PROP_FRAME_COUNT))
-    capture.release()
-    _, frames = video_samples(path, count, samples)
+    with decoder_output_silenced():
+        capture = cv2.VideoCapture(str(path))
+        count = int(capture.get(cv2.CAP_PROP_FRAME_COUNT))
+        capture.release()
+        _, frames = video_samples(path, count, samples)
     return estimate_background(frames).grey if frames else None
 
 
@@ -148,7 +148,8 @@ def trajectory_from_video(path, ball_radius_m=None, scale_m_per_px=None, capture
     video_limits.check_recording(table, path)  # refuse below the limits of benchmarks/video_failure_sweep.py
     usable = usable_rows(table)
     if np.count_nonzero(usable) < 10:
-        raise InputError(f"{path}: the ball is measured cleanly in only {np.count_nonzero(usable)} frames")
+        raise InputError(f"{shown_path(path)}: the ball is measured cleanly in only {np.count_nonzero(usable)} of "
+                         f"{len(table)} frames (at least 10 are needed)")
     rows = np.where(usable, table["y_px"].to_numpy(), np.nan)
     radius_px = table["radius_px"].to_numpy()[usable]
     extra = dict(attrs or {})
@@ -162,9 +163,10 @@ def trajectory_from_video(path, ball_radius_m=None, scale_m_per_px=None, capture
     else:
         _add_gravity_scale(scales, time, rows, gravity_m_s2, path, extra)
     if not scales:
-        raise InputError(f"{path}: no scale: give the ball radius, a ruler's tick spacing or scale_m_per_px "
+        raise InputError(f"{shown_path(path)}: no scale: give the ball radius, a ruler's tick spacing or scale_m_per_px "
                          f"({extra.get('gravity_calibration_failed', 'gravity calibration failed')})")
     chosen, scale = _record_scales(scales, extra)
+    check_floor(-rows[np.isfinite(rows)] * scale, extra, path)  # a given floor, in the video's frame
     if extra.get("floor_m") is None and background is not None:
         median_radius_px = float(np.nanmedian(radius_px))
         floor_row = find_floor_row(background, float(np.nanmax(rows)) + median_radius_px, median_radius_px)
