@@ -28,9 +28,8 @@ def log_trials():
         for seed in range(LOGS_PER_SCENARIO):
             table, fitted = log_trial(scenario, seed)
             pairs.append(table.assign(scenario=name))
-            law = fitted["restitution_vs_speed"]
             rebound = fitted["itf"].get("rebound_m")
-            choices.append({"scenario": name, "drag": fitted["drag"]["model"], "law": law and law["chosen"],
+            choices.append({"scenario": name, "drag": fitted["drag"]["model"], "law": fitted["restitution"]["model"],
                             "itf_method": rebound and rebound["method"].split()[0]})
     return pd.concat(pairs), pd.DataFrame(choices)
 
