@@ -44,8 +44,7 @@ def main():
         for seed in range(trials):
             pairs, fitted = log_trial(scenario, seed)
             frames.append(pairs.assign(scenario=name))
-            law = fitted["restitution_vs_speed"]
-            chosen = (fitted["drag"]["model"], law["chosen"] if law else "too few impacts")
+            chosen = (fitted["drag"]["model"], fitted["restitution"]["model"])
             choices.setdefault(name, {}).setdefault(chosen, 0)
             choices[name][chosen] += 1
         seconds[name] = (time.perf_counter() - start) / trials

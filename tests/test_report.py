@@ -1,7 +1,9 @@
 """Per-recording report and batch summary, built from a small synthetic run through the stages."""
 
 import json
+from html import escape
 
+import numpy as np
 import pandas as pd
 import pytest
 
@@ -22,7 +24,7 @@ scenarios:
     sensor: {sample_rate_hz: 100, noise_m: 0.001, offset_m: 0.12, dropout_fraction: 0.01, unit: m}
 """
 
-SECTIONS = ["Recording", "Result", "e against impact speed", "ITF verdict", "Drag", "Theory checks", "Contact time", "Impacts table", "Figure"]
+SECTIONS = ["Recording", "Result", "Restitution models", "ITF verdict", "Drag", "Theory checks", "Contact time", "Impacts table", "Figure"]
 
 
 @pytest.fixture(scope="module")
@@ -133,3 +135,71 @@ def test_qc_stage_wants_one_ball_id_per_fit(run, tmp_path):
     with pytest.raises(InputError, match="2 ball ids for 1 fit results"):
         stages.qc([run["fit.json"]], "lot_x", tmp_path / "a.html", tmp_path / "a.png", tmp_path / "a.csv",
                   ball_ids=["A", "B"])
+
+
+def _refit(run, e_of_speed, seed):
+    """The run's analysis refitted with per-impact e replaced: e_of_speed(v) plus noise drawn from the
+    analysis' own e covariance (seeded). Returns (impacts, fit result)."""
+    from dropfit.files import read_json, read_table
+
+    summary = {key: float("nan") if value is None else value for key, value in read_json(run["analysis.json"]).items()}
+    impacts = read_table(run["impacts.csv"])
+    noise = np.linalg.cholesky(np.asarray(summary["e_covariance"])) @ np.random.default_rng(seed).standard_normal(
+        len(impacts))
+    impacts["e"] = e_of_speed(impacts["v_in_m_s"].to_numpy()) + noise
+    return impacts, stages.fit_result(summary, impacts, ball_type="tennis", itf_drop_height_m=2.0)
+
+
+# Per-impact e against speed (m/s) that make the fit choose each kind of headline: a constant, a law of
+# speed, and no law (e alternating by ±0.03, far beyond errors of 0.0005–0.01).
+HEADLINE_CASES = {
+    "constant": lambda v: np.full(v.size, 0.75),
+    "linear": lambda v: 0.85 - 0.02 * v,
+    "per_impact": lambda v: 0.75 + 0.03 * (-1.0) ** np.arange(v.size),
+}
+
+
+@pytest.mark.parametrize("expected", sorted(HEADLINE_CASES))
+def test_headline_model_section_and_figure_show_the_same_model(run, monkeypatch, tmp_path, expected):
+    """The Result section states the chosen model, the model section marks it, and panel (c) of the
+    figure is asked to draw its curve (through the headline e at the first impact's speed) or, with
+    no law, the points alone."""
+    from dropfit import report
+    from dropfit.heightlog import read_trajectory
+    from dropfit.files import read_json, read_table
+    from dropfit.speed_dependence import LAWS
+
+    impacts, fit = _refit(run, HEADLINE_CASES[expected], seed=1)
+    restitution = fit["restitution"]
+    assert restitution["model"] == expected
+    drawn = []
+    original = report.speed_panel
+    monkeypatch.setattr(report, "speed_panel", lambda *args, **kwargs: drawn.append(original(*args, **kwargs))
+                        or drawn[-1])
+    report.write_recording_report(read_trajectory(run["trajectory.nc"]), read_table(run["flights.csv"]), impacts,
+                                  read_json(run["analysis.json"]), fit, tmp_path / "r.html", tmp_path / "r.png")
+    html = (tmp_path / "r.html").read_text(encoding="utf-8")
+    result = html[html.index("<h2>Result</h2>"):html.index("<h2>Restitution models</h2>")]
+    models = html[html.index("<h2>Restitution models</h2>"):html.index("<h2>ITF verdict</h2>")]
+    assert f"<strong>{escape(LAWS[expected])}</strong>" in result
+    assert format_pm(restitution["e"]["value"], restitution["e"]["se"]) in result
+    assert f"<td>▶ {expected}</td>" in models and models.count("▶") == 1
+    assert f"Chosen: <b>{expected}</b>" in models
+    (panel,) = drawn
+    assert panel["model"] == expected
+    if expected == "per_impact":
+        assert panel["curve"] is None
+        assert "no law describes these impacts" in result
+        assert restitution["e"]["value"] == pytest.approx(impacts["e"].iloc[0])  # e₁ is the headline
+        assert "best law by BIC" in fit["itf"]["rebound_m"]["method"]
+    else:
+        curve = panel["curve"]
+        at_first = np.interp(restitution["reference_speed_m_s"], curve["speed_m_s"], curve["e"])
+        assert at_first == pytest.approx(restitution["e"]["value"], abs=1e-4 * restitution["e"]["se"] + 1e-9)
+        assert np.all(curve["low"] < curve["e"]) and np.all(curve["e"] < curve["high"])
+        assert f"chosen {expected} law" in fit["itf"]["rebound_m"]["method"]
+    assert restitution["verdict"] != "rejected"
+    row = batch_rows([fit]).iloc[0]
+    assert row["restitution_model"] == expected
+    assert row["e"] == pytest.approx(restitution["e"]["value"])
+    assert row["e1"] == pytest.approx(impacts["e"].iloc[0])

@@ -8,7 +8,7 @@ import pytest
 from scipy import stats
 
 from dropfit.physics import restitution
-from dropfit.speed_dependence import DELTA_BIC_INDISTINGUISHABLE, fit_speed_dependence, predict_e
+from dropfit.speed_dependence import DELTA_BIC_INDISTINGUISHABLE, fit_restitution_models, predict_e
 
 SPEEDS_M_S = np.array([7.0, 5.3, 4.0, 3.0, 2.3, 1.7, 1.3, 1.0])  # a bounce sequence, m/s
 E_SE = 0.002  # per-impact standard error of e (dimensionless)
@@ -40,7 +40,7 @@ def trials(model, covariance, seed, n_trials=N_TRIALS):
     rng = np.random.default_rng(seed)
     chol = np.linalg.cholesky(covariance)
     truth = restitution(SPEEDS_M_S, model)
-    return [fit_speed_dependence(SPEEDS_M_S, truth + chol @ rng.standard_normal(truth.size), covariance)
+    return [fit_restitution_models(SPEEDS_M_S, truth + chol @ rng.standard_normal(truth.size), covariance)
             for _ in range(n_trials)]
 
 
@@ -91,11 +91,13 @@ def test_power_law_chooses_power():
     covariance = COVARIANCES["correlated"]
     # Without noise the straight line misses the v^(1/5) curvature by a χ² far above the ΔBIC
     # threshold plus the ln n penalty difference, so with noise power should (almost) always win.
-    noiseless = fit_speed_dependence(SPEEDS_M_S, restitution(SPEEDS_M_S, POWER), covariance)
+    noiseless = fit_restitution_models(SPEEDS_M_S, restitution(SPEEDS_M_S, POWER), covariance)
     assert noiseless["models"]["power"]["chi2"] == pytest.approx(0.0, abs=1e-9)
     assert noiseless["models"]["linear"]["chi2"] > 10 * DELTA_BIC_INDISTINGUISHABLE
     results = trials(POWER, covariance, seed=7)
-    assert np.mean([t["chosen"] == "power" and not t["indistinguishable"] for t in results]) >= CHOICE_MIN
+    # 1/e − 1 = a vᵖ with p ≈ 1/5 mimics this law (ΔBIC ≈ ln 8 from its extra parameter), so the two are
+    # indistinguishable here and the simpler, power, is chosen
+    assert np.mean([t["chosen"] == "power" for t in results]) >= CHOICE_MIN
     b = [t["models"]["power"]["parameters"]["coefficient"] for t in results]
     pulls = np.array([(x["value"] - POWER["coefficient"]) / x["se"] for x in b])
     assert np.mean(np.abs(pulls) < stats.norm.ppf(0.975)) >= COVERAGE_MIN
@@ -118,7 +120,7 @@ def test_result_is_json_ready_and_consistent():
     rng = np.random.default_rng(3)
     covariance = COVARIANCES["correlated"]
     e = restitution(SPEEDS_M_S, LINEAR) + np.linalg.cholesky(covariance) @ rng.standard_normal(8)
-    result = fit_speed_dependence(SPEEDS_M_S, e, covariance)
+    result = fit_restitution_models(SPEEDS_M_S, e, covariance)
     json.dumps(result)
     n = SPEEDS_M_S.size
     for name, model in result["models"].items():
@@ -135,7 +137,7 @@ def test_indistinguishable_names_both_models_and_picks_simpler():
     # noise so that power is far off, and check the sentence on a near-tie built by construction.
     e = np.full(SPEEDS_M_S.size, 0.8)
     covariance = band_covariance(0.05, 0.0)  # noise so large that no model is ruled out
-    result = fit_speed_dependence(SPEEDS_M_S, e, covariance)
+    result = fit_restitution_models(SPEEDS_M_S, e, covariance)
     close = [k for k, m in result["models"].items() if m["delta_bic"] < DELTA_BIC_INDISTINGUISHABLE]
     assert result["indistinguishable"] == (len(close) > 1)
     if result["indistinguishable"]:
@@ -154,7 +156,7 @@ def test_singular_covariance_falls_back_to_pinv():
     covariance = basis @ basis.T
     assert np.linalg.matrix_rank(covariance) < n
     e = restitution(SPEEDS_M_S, LINEAR) + basis @ np.random.default_rng(9).standard_normal(basis.shape[1])
-    result = fit_speed_dependence(SPEEDS_M_S, e, covariance)
+    result = fit_restitution_models(SPEEDS_M_S, e, covariance)
     assert result["covariance_singular"] is True
     slope = result["models"]["linear"]["parameters"]["slope_s_m"]
     assert np.isfinite(slope["value"]) and np.isfinite(slope["se"])

@@ -1,7 +1,7 @@
 """dropfit: ball drop tests to trustworthy numbers.
 
 The public API: simulate and sample a drop test, read a height log, analyse the bounces, and
-estimate e with the theory checks and the ITF verdict.
+estimate e (constant, or the model of e chosen by evidence) with the theory checks and the ITF verdict.
 """
 
 __version__ = "0.1.0"
@@ -12,6 +12,7 @@ from .heightlog import read_height_log, trajectory_from_log
 from .impulse import (BallOnBlock, CentralImpact, average_force, ball_on_block, central_impact,
                       half_sine_peak_force, impulse)
 from .restitution import constant_restitution, itf_rebound, itf_verdict, theory_checks
+from .speed_dependence import fit_restitution_models
 from .synth import DropTruth, sample_height_log, simulate_drop, synthesize
 
 __all__ = [
@@ -25,6 +26,7 @@ __all__ = [
     "ball_on_block",
     "central_impact",
     "constant_restitution",
+    "fit_restitution_models",
     "half_sine_peak_force",
     "impulse",
     "itf_rebound",

@@ -111,10 +111,12 @@ def _pairs(scenario, truth, analysis, fitted):
     rows.append(("drop_height_m", fitted["drop_height_m"]["value"], fitted["drop_height_m"]["se"],
                  truth["drop_height_m"]))
     law = scenario.get("restitution", {})
+    models = fitted["restitution_models"]
     if law.get("kind") == "constant":
-        rows.append(("e_constant", fitted["restitution"]["e"]["value"], fitted["restitution"]["e"]["se"], law["e0"]))
-    if law.get("kind") == "linear" and fitted["restitution_vs_speed"]:
-        parameters = fitted["restitution_vs_speed"]["models"]["linear"]["parameters"]
+        e0 = models["constant"]["parameters"]["e0"]
+        rows.append(("e_constant", e0["value"], e0["se"], law["e0"]))
+    if law.get("kind") == "linear" and "linear" in models:
+        parameters = models["linear"]["parameters"]
         rows += [(f"e_linear_{name}", parameters[name]["value"], parameters[name]["se"], law[key])
                  for name, key in (("e0", "e0"), ("slope_s_m", "slope_s_m"))]
     if fitted["drag"]["model"] != "none":

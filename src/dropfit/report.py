@@ -24,15 +24,19 @@ from .errors import shown  # noqa: E402
 from .files import atomic_output  # noqa: E402
 from .physics import flight_height  # noqa: E402
 from .restitution import Z95  # noqa: E402
+from .speed_dependence import (DELTA_BIC_INDISTINGUISHABLE, LAWS, MODELS, P_QUESTIONABLE, P_REJECTED,  # noqa: E402
+                               p_value_phrase, p_value_text, predict_e)
 
 MISSING = "—"
 
-BATCH_COLUMNS = ["sample_id", "status", "ball_type", "n_impacts", "e", "e_se", "e_ci95_low", "e_ci95_high",
-                 "drop_height_m", "itf_rebound_m", "itf_rebound_se_m", "itf_verdict", "drag_model", "error"]
+BATCH_COLUMNS = ["sample_id", "status", "ball_type", "n_impacts", "restitution_model", "e", "e_se", "e_ci95_low",
+                 "e_ci95_high", "e_speed_m_s", "e1", "e1_se", "drop_height_m", "itf_rebound_m", "itf_rebound_se_m",
+                 "itf_verdict", "drag_model", "error"]
 
 _BATCH_HEADERS = {
-    "sample_id": "sample id", "status": "status", "ball_type": "ball", "n_impacts": "impacts",
-    "e": "e (1)", "e_se": "se(e) (1)", "e_ci95_low": "e 95 % low (1)", "e_ci95_high": "e 95 % high (1)",
+    "sample_id": "sample id", "status": "status", "ball_type": "ball", "n_impacts": "impacts fitted",
+    "restitution_model": "e model", "e": "e at v₁ (1)", "e_se": "se(e) (1)", "e_ci95_low": "e 95 % low (1)",
+    "e_ci95_high": "e 95 % high (1)", "e_speed_m_s": "v₁ (m/s)", "e1": "e₁ (1)", "e1_se": "se(e₁) (1)",
     "drop_height_m": "drop height (m)", "itf_rebound_m": "ITF rebound (m)", "itf_rebound_se_m": "se(rebound) (m)",
     "itf_verdict": "ITF verdict", "drag_model": "drag model", "error": "error",
 }
@@ -193,6 +197,48 @@ def _flight_curves(trajectory, flights, analysis):
     return curves, np.concatenate(residual_t), np.concatenate(residual_m)
 
 
+def speed_panel(fit, impacts, n_grid=200):
+    """What panel (c) of the report figure draws: every impact's e against its speed and the chosen model.
+
+    Parameters
+    ----------
+    fit : dict
+        Fit result (``restitution`` and ``restitution_models``).
+    impacts : pandas.DataFrame
+        Impacts table (``impact``, ``v_in_m_s``, ``e``, ``e_se``).
+    n_grid : int
+        Points of the curve.
+
+    Returns
+    -------
+    dict
+        ``model`` (the chosen model, ``fit["restitution"]["model"]``), ``title``; per impact
+        ``speed_m_s`` (m/s), ``e`` and ``e_ci95_half`` (1.96 se) (1), ``in_fit`` (bool); and
+        ``curve``: None for ``per_impact`` (the points alone), else ``speed_m_s`` (a grid over the
+        fitted impacts' speeds, m/s), ``e`` and its 95 % band ``low``, ``high`` (1) of the chosen
+        law, with the legend's ``label`` and ``band_label``.
+    """
+    restitution = fit["restitution"]
+    model = restitution["model"]
+    speeds = impacts["v_in_m_s"].to_numpy(dtype=float)
+    fitted = impacts["impact"].isin(restitution["impacts_used"]).to_numpy()
+    panel = {"model": model, "speed_m_s": speeds, "e": impacts["e"].to_numpy(dtype=float),
+             "e_ci95_half": Z95 * impacts["e_se"].to_numpy(dtype=float), "in_fit": fitted, "curve": None,
+             "title": "(c) e per impact: no law describes these impacts" if model == "per_impact"
+             else "(c) e per impact and the chosen law"}
+    if model == "per_impact":
+        return panel
+    low, high = speeds[fitted].min(), speeds[fitted].max()
+    grid = np.linspace(low - 0.05 * (high - low + 0.1), high + 0.05 * (high - low + 0.1), n_grid)
+    e, se = predict_e(fit["restitution_models"][model], grid)
+    widened = restitution["birge_factor"]
+    value = f" = {format_pm(restitution['e']['value'], restitution['e']['se'])}" if model == "constant" else ""
+    panel["curve"] = {"speed_m_s": grid, "e": e, "low": e - Z95 * se, "high": e + Z95 * se,
+                      "label": f"chosen: {LAWS[model]}{value}",
+                      "band_label": "95 % band" + (f" (widened {widened:.2g}×: misfit)" if widened > 1 else "")}
+    return panel
+
+
 def _figure_png(trajectory, flights, impacts, analysis, fit):
     """The four-panel report figure as PNG bytes."""
     t = trajectory["time"].values
@@ -231,14 +277,21 @@ def _figure_png(trajectory, flights, impacts, analysis, fit):
     ax_res.set_ylabel("residual (mm)")
     ax_res.set_title(f"(b) fit residuals (noise {1e3 * analysis['noise_m']:.2g} mm)", loc="left")
 
-    e_fit = fit["restitution"]["e"]
-    ax_e.errorbar(impacts["v_in_m_s"], impacts["e"], yerr=Z95 * impacts["e_se"], fmt="o", ms=4, capsize=3,
-                  color="tab:blue", label="per impact (±1.96 se)")
-    ax_e.axhline(e_fit["value"], color="tab:orange", lw=1.2, label=f"constant e = {format_pm(e_fit['value'], e_fit['se'])}")
-    ax_e.axhspan(*e_fit["ci95"], color="tab:orange", alpha=0.25, label="95 % interval")
+    panel = speed_panel(fit, impacts)
+    fitted, left_out = panel["in_fit"], ~panel["in_fit"]
+    ax_e.errorbar(panel["speed_m_s"][fitted], panel["e"][fitted], yerr=panel["e_ci95_half"][fitted], fmt="o", ms=4,
+                  capsize=3, color="tab:blue", label="per impact (±1.96 se)")
+    if left_out.any():
+        ax_e.errorbar(panel["speed_m_s"][left_out], panel["e"][left_out], yerr=panel["e_ci95_half"][left_out],
+                      fmt="o", ms=4, capsize=3, color="tab:blue", mfc="white", label="left out of the fits")
+    curve = panel["curve"]
+    if curve:
+        ax_e.plot(curve["speed_m_s"], curve["e"], "-", color="tab:orange", lw=1.2, label=curve["label"])
+        ax_e.fill_between(curve["speed_m_s"], curve["low"], curve["high"], color="tab:orange", alpha=0.25,
+                          label=curve["band_label"])
     ax_e.set_xlabel("impact speed $v_\\mathrm{in}$ (m/s)")
     ax_e.set_ylabel("coefficient of restitution e (1)")
-    ax_e.set_title("(c) e per impact", loc="left")
+    ax_e.set_title(panel["title"], loc="left")
     ax_e.legend(loc="best", fontsize=8)
 
     heights = pd.DataFrame(fit["theory"]["heights"])
@@ -333,36 +386,102 @@ def _video_frame_html(trajectory):
             + _png_img(png.tobytes(), "video frame with the tracked ball"))
 
 
+_PARAMETER_LABELS = {"e0": "e₀", "slope_s_m": "a", "coefficient": "b", "a": "a", "exponent": "p"}
+
+
+def _parameter_label(name):
+    """How a model parameter is named on the page (``e_3`` is impact 3's own e)."""
+    return f"e of impact {name[2:]}" if name.startswith("e_") else _PARAMETER_LABELS[name]
+
+
+def _unit(estimate):
+    """The unit of an estimate dict as shown after its value (none for dimensionless)."""
+    unit = estimate.get("unit", "1")
+    return "" if unit == "1" else unit
+
+
+def _goodness(model):
+    """χ²/dof, p and the verdict of a model record, as text."""
+    if not model.get("dof"):
+        return f"χ² = {_num(model.get('chi2'), '.3g')}, no degrees of freedom: {model.get('verdict')}"
+    return (f"χ²/dof = {_num(model.get('chi2'), '.4g')}/{model['dof']} = {_num(model.get('chi2_per_dof'), '.3g')}, "
+            f"{p_value_phrase(model['p_value'])}: {model.get('verdict')}")
+
+
+def _impacts_used(restitution):
+    """How many impacts entered the fits, and the ones left out with the analysis' notes."""
+    used = f"{restitution['n_impacts']} of {restitution['n_impacts_total']}"
+    excluded = restitution.get("impacts_excluded") or []
+    if not excluded:
+        return f"{used} (all)"
+    return used + "; left out of every fit: " + "; ".join(
+        f"impact {item['impact']} ({escape(item['note'])})" for item in excluded)
+
+
 def _section_result(fit):
+    """The headline: the chosen model with its parameters and e at the first fitted impact's speed."""
     restitution = fit["restitution"]
+    model = restitution["model"]
     e = restitution["e"]
-    return _definitions([
-        ("Coefficient of restitution e", f"<strong>{escape(format_pm(e['value'], e['se']))}</strong>"),
-        ("95 % interval", escape(_format_interval(e.get("ci95"), e["se"]))),
-        ("Impacts", _text(restitution.get("n_impacts"))),
-        ("Model", f"{_text(restitution.get('model'))} e: {_text(restitution.get('why'))}"),
-        ("Goodness of fit", f"χ² = {_num(restitution.get('chi2'), '.2f')}, dof = {_text(restitution.get('dof'))}, "
-                            f"p = {_num(restitution.get('p_value'), '.3g')}"),
-    ])
+    headline = (f"<strong>{escape(format_pm(e['value'], e['se']))}</strong> "
+                f"(95 % interval {escape(_format_interval(e.get('ci95'), e['se']))})")
+    where = f"impact {restitution['reference_impact']} at {restitution['reference_speed_m_s']:.3f} m/s"
+    rows = [("Model", f"<strong>{escape(restitution['law'])}</strong>: {escape(restitution['description'])}")]
+    if model == "constant":
+        rows.append(("Coefficient of restitution e", headline))
+    elif model == "per_impact":
+        rows.append(("e per impact", "; ".join(
+            f"{escape(_parameter_label(name))}: {escape(format_pm(value['value'], value['se']))}"
+            for name, value in restitution["parameters"].items())))
+        rows.append((f"e₁ ({where})", headline))
+    else:
+        rows += [(_parameter_label(name), escape(_estimate(value, _unit(value))))
+                 for name, value in restitution["parameters"].items()]
+        rows.append((f"e at the first impact's speed ({where})", headline))
+        e1 = restitution["e1"]
+        rows.append(("e₁ measured", escape(format_pm(e1["value"], e1["se"]))))
+    rows += [
+        ("Goodness of fit", escape(_goodness(restitution))),
+        ("Uncertainty", _text(restitution.get("note"))),
+        ("Why this model", _text(restitution.get("why"))),
+        ("Impacts used", _impacts_used(restitution)),
+    ]
+    return _definitions(rows)
 
 
-_PARAMETER_LABELS = {"e0": ("e₀", ""), "slope_s_m": ("slope a", "s/m"), "coefficient": ("b", "(s/m)^(1/5)")}
-_MODEL_LAWS = {"constant": "e = e₀", "linear": "e = e₀ − a v", "power": "1 − e = b v^(1/5)"}
-
-
-def _section_speed(fit):
-    speed = fit.get("restitution_vs_speed")
-    if not speed:
-        return "<p>Fewer than three impacts: e against speed not fitted.</p>"
+def _section_models(fit):
+    """Every restitution model with its test, verdict and ΔBIC; the chosen one marked."""
+    models = fit["restitution_models"]
+    restitution = fit["restitution"]
+    chosen = restitution["model"]
     rows = []
-    for name, model in speed["models"].items():
-        parameters = "; ".join(f"{_PARAMETER_LABELS[key][0]} = {_estimate(value, _PARAMETER_LABELS[key][1])}"
-                               for key, value in model["parameters"].items())
-        rows.append([(_text(("▶ " if name == speed["chosen"] else "") + _MODEL_LAWS[name]), False),
-                     (escape(parameters), False), (_num(model["chi2"], ".1f"), True), (_text(model["dof"]), True),
-                     (_num(model["bic"], ".1f"), True)])
-    return (f"<p>Chosen: <b>{_text(_MODEL_LAWS[speed['chosen']])}</b>. {_text(speed['why'])}</p>\n"
-            + _table(["model", "parameters", "χ² (1)", "dof", "BIC (1)"], rows))
+    for name in MODELS:
+        model = models.get(name)
+        if model is None:
+            continue
+        if name == "per_impact":
+            parameters = "one e per impact (impacts table)"
+        else:
+            parameters = "; ".join(f"{_parameter_label(key)} = {_estimate(value, _unit(value))}"
+                                   for key, value in model["parameters"].items())
+        reference = model["e_reference"]
+        rows.append([(("▶ " if name == chosen else "") + escape(name), False), (escape(model["law"]), False),
+                     (escape(parameters), False), (escape(format_pm(reference["value"], reference["se"])), True),
+                     (_num(model.get("chi2_per_dof"), ".3g"), True), (escape(p_value_text(model["p_value"])), True),
+                     (_text(model["verdict"]), False), (_num(model["birge_factor"], ".3g"), True),
+                     (_num(model["delta_bic"], ".1f"), True)])
+    not_fitted = "".join(f"<li>{escape(name)} ({escape(LAWS[name])}): not fitted, {escape(reason)}</li>\n"
+                         for name, reason in restitution.get("not_fitted", {}).items())
+    rules = (f"Each model is tested by its own χ²: it fits for p ≥ {P_QUESTIONABLE:g}; it is questionable for "
+             f"{P_REJECTED:g} ≤ p < {P_QUESTIONABLE:g} and rejected for p < {P_REJECTED:g}, and in both cases its "
+             f"uncertainty is widened by the Birge ratio √(χ²/dof). A rejected model is never the headline. "
+             f"Of the others, the simplest within ΔBIC < {DELTA_BIC_INDISTINGUISHABLE:g} of the lowest BIC is "
+             f"chosen (ΔBIC is to that lowest). e at v₁ is each model's e at the first fitted impact's speed, "
+             f"{restitution['reference_speed_m_s']:.3f} m/s.")
+    return (f"<p>Chosen: <b>{escape(chosen)}</b> ({escape(LAWS[chosen])}). {_text(restitution.get('why'))}</p>\n"
+            + _table(["model", "law", "parameters (95 % interval)", "e at v₁ (1)", "χ²/dof (1)", "p-value (1)",
+                      "verdict", "Birge factor (1)", "ΔBIC (1)"], rows)
+            + (f"\n<ul>\n{not_fitted}</ul>" if not_fitted else "") + f"\n<p>{escape(rules)}</p>")
 
 
 def _section_itf(fit):
@@ -493,7 +612,7 @@ def recording_report_html(trajectory, flights, impacts, fit, png):
     sections = [
         ("Recording", _section_recording(fit) + _video_frame_html(trajectory)),
         ("Result", _section_result(fit)),
-        ("e against impact speed", _section_speed(fit)),
+        ("Restitution models", _section_models(fit)),
         ("ITF verdict", _section_itf(fit)),
         ("Drag", _section_drag(fit)),
         ("Theory checks", _section_theory(fit)),
@@ -537,13 +656,16 @@ def _batch_row(fit):
     """One summary row from a fit result or a failure record."""
     if fit.get("status") == "failed":
         return {"sample_id": fit.get("sample_id"), "status": "failed", "error": fit.get("error")}
-    e = fit["restitution"]["e"]
+    restitution = fit["restitution"]
+    e, e1 = restitution["e"], restitution.get("e1") or {}
     rebound = fit["itf"].get("rebound_m") or {}
     ci = e.get("ci95") or [None, None]
     return {
         "sample_id": fit.get("sample_id"), "status": fit.get("status", "ok"),
-        "ball_type": (fit.get("ball") or {}).get("type"), "n_impacts": fit["restitution"].get("n_impacts"),
+        "ball_type": (fit.get("ball") or {}).get("type"), "n_impacts": restitution.get("n_impacts"),
+        "restitution_model": restitution.get("model"),
         "e": e.get("value"), "e_se": e.get("se"), "e_ci95_low": ci[0], "e_ci95_high": ci[1],
+        "e_speed_m_s": restitution.get("reference_speed_m_s"), "e1": e1.get("value"), "e1_se": e1.get("se"),
         "drop_height_m": (fit.get("drop_height_m") or {}).get("value"),
         "itf_rebound_m": rebound.get("value"), "itf_rebound_se_m": rebound.get("se"),
         "itf_verdict": fit["itf"].get("verdict"), "drag_model": fit["drag"].get("model"),
@@ -562,11 +684,15 @@ def batch_rows(fits):
     Returns
     -------
     pandas.DataFrame
-        Columns :data:`BATCH_COLUMNS`: e and its se and 95 % interval (1), drop height and ITF
-        rebound with its se (m); NaN where not applicable (e.g. every number of a failed recording).
+        Columns :data:`BATCH_COLUMNS`: impacts fitted, the chosen restitution model, its e at the
+        first fitted impact's speed (for a constant e, e; for ``per_impact``, e₁) with se and 95 %
+        interval (1), that speed ``e_speed_m_s`` (m/s), the first fitted impact's own e ``e1`` with
+        se (1), drop height and ITF rebound with its se (m); NaN where not applicable (e.g. every
+        number of a failed recording).
     """
     table = pd.DataFrame([_batch_row(fit) for fit in fits], columns=BATCH_COLUMNS)
-    numeric = ["e", "e_se", "e_ci95_low", "e_ci95_high", "drop_height_m", "itf_rebound_m", "itf_rebound_se_m"]
+    numeric = ["e", "e_se", "e_ci95_low", "e_ci95_high", "e_speed_m_s", "e1", "e1_se", "drop_height_m",
+               "itf_rebound_m", "itf_rebound_se_m"]
     table[numeric] = table[numeric].astype(float)
     table["n_impacts"] = table["n_impacts"].astype("Int64")
     return table
@@ -574,7 +700,8 @@ def batch_rows(fits):
 
 # Each number is shown to the precision of the standard error in the named column (se to 2 figures).
 _BATCH_PRECISION_FROM = {"e": "e_se", "e_se": "e_se", "e_ci95_low": "e_se", "e_ci95_high": "e_se",
-                         "drop_height_m": None, "itf_rebound_m": "itf_rebound_se_m",
+                         "e_speed_m_s": None, "e1": "e1_se", "e1_se": "e1_se", "drop_height_m": None,
+                         "itf_rebound_m": "itf_rebound_se_m",
                          "itf_rebound_se_m": "itf_rebound_se_m"}
 
 
@@ -609,7 +736,9 @@ def batch_report_html(table):
         body.append(f"<tr{row_class}>{''.join(cells)}</tr>")
     rows = "\n".join(body)
     return _html_page("dropfit batch summary",
-                      f"<p>{len(table)} recordings: {int((~failed).sum())} analysed, {int(failed.sum())} failed.</p>",
+                      f"<p>{len(table)} recordings: {int((~failed).sum())} analysed, {int(failed.sum())} failed. "
+                      f"e is the chosen model's e at the first fitted impact's speed v₁ (a constant e at every "
+                      f"speed; with no law, per_impact, the first impact's own e); e₁ is that impact's own e.</p>",
                       f"<table>\n<tr>{head}</tr>\n{rows}\n</table>")
 
 

@@ -10,6 +10,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import yaml
 
 from . import __version__, video_limits
@@ -20,9 +21,9 @@ from .files import atomic_output, sha256_of, write_json, write_text
 from .heightlog import read_trajectory, trajectory_from_log
 from .inputs import read_analysis, read_fit, read_flights, read_impacts, read_report_analysis
 from .physics import SPHERE_DRAG_COEFFICIENT, STANDARD_GRAVITY_M_S2, drag_parameter, speed_below_apex
-from .restitution import (ITF_DROP_HEIGHT_M, ITF_REBOUND_MAX_M, ITF_REBOUND_MIN_M, constant_restitution, estimate,
-                          itf_rebound, itf_verdict, theory_checks)
-from .speed_dependence import fit_speed_dependence, predict_e, prediction_covariance
+from .restitution import (ITF_DROP_HEIGHT_M, ITF_REBOUND_MAX_M, ITF_REBOUND_MIN_M, estimate, itf_rebound,
+                          itf_verdict, theory_checks)
+from .speed_dependence import fit_restitution_models, predict_e, prediction_covariance, prediction_law
 from .synth import scenario_recordings, synthesize
 from .tracking import TRACKED_CENTRE_CORRELATION
 from .videolog import is_video, trajectory_from_video
@@ -143,25 +144,33 @@ def fit_result(summary, impacts, ball_type=None, itf_drop_height_m=ITF_DROP_HEIG
                itf_rebound_min_m=ITF_REBOUND_MIN_M, itf_rebound_max_m=ITF_REBOUND_MAX_M,
                itf_drop_height_tolerance_m=0.02):
     """The fit result (JSON-ready dict) from an analysis summary (:func:`analysis_summary`) and its
-    impacts table; the options as for :func:`fit`."""
+    impacts table; the options as for :func:`fit`.
+
+    Every fit (the restitution models, the ITF prediction, the contact k and c) uses only the impacts
+    with ``in_fit`` true (:func:`fit_rows`) and the matching blocks of the covariances; the restitution
+    models and the headline are those of :func:`dropfit.speed_dependence.fit_restitution_models`.
+    Raises :class:`dropfit.errors.InputError` when no impact is left to fit.
+    """
     attrs = summary.get("trajectory_attrs", {})
     ball_type = ball_type or attrs.get("ball_type")
     mass = attrs.get("ball_mass_kg")
-    constant = constant_restitution(impacts["e"].to_numpy(), np.asarray(summary["e_covariance"]))
-    e, e_se = constant["e"]["value"], constant["e"]["se"]
-    if constant["dof"] > 0 and constant["p_value"] < 0.01:
-        why = (f"constant e is the simplest model; the impacts disagree with it (chi2 = {constant['chi2']:.1f} "
-               f"for {constant['dof']} degrees of freedom, p = {constant['p_value']:.2g}): e varies between impacts")
-    else:
-        why = "constant e is the simplest model and the impacts agree with it within their uncertainty"
+    used = fit_rows(impacts)
+    if used.size == 0:
+        raise InputError("no impact is left to fit: the analysis marked every impact as not in_fit "
+                         "(see the note column of the impacts table)")
+    fitted_impacts = impacts.iloc[used]
+    models = fit_restitution_models(fitted_impacts["v_in_m_s"].to_numpy(), fitted_impacts["e"].to_numpy(),
+                                    np.asarray(summary["e_covariance"])[np.ix_(used, used)],
+                                    fitted_impacts["impact"].to_numpy())
+    # the seed's theory checks are those of a constant e, whichever model is the headline
+    constant = models["models"]["constant"]["parameters"]["e0"]
     fall_time = impacts["t_touchdown_s"].iloc[0] - summary["drop_apex_time_s"]
-    theory = theory_checks(e, e_se, summary["drop_height_m"], fall_time, impacts["h_after_m"].to_numpy(),
-                           impacts["h_after_se_m"].to_numpy(), summary["rest_time_s"] - summary["drop_apex_time_s"])
-    speed_law = fit_speed_dependence(impacts["v_in_m_s"].to_numpy(), impacts["e"].to_numpy(),
-                                     np.asarray(summary["e_covariance"])) if len(impacts) >= 3 else None
-    itf = _itf(ball_type, summary, impacts, constant, speed_law, itf_drop_height_m, itf_rebound_min_m,
+    theory = theory_checks(constant["value"], constant["se"], summary["drop_height_m"], fall_time,
+                           impacts["h_after_m"].to_numpy(), impacts["h_after_se_m"].to_numpy(),
+                           summary["rest_time_s"] - summary["drop_apex_time_s"])
+    itf = _itf(ball_type, summary, impacts, models, used, itf_drop_height_m, itf_rebound_min_m,
                itf_rebound_max_m, itf_drop_height_tolerance_m)
-    resolvable_rows = impacts[impacts["contact_resolvable"].astype(bool)]
+    resolvable = impacts["contact_resolvable"].astype(bool).to_numpy()
     drag = {
         "model": summary["drag_model"],
         "k_per_m": estimate(summary["drag_k_per_m"], summary["drag_k_se_per_m"], "1/m"),
@@ -186,14 +195,14 @@ def fit_result(summary, impacts, ball_type=None, itf_drop_height_m=ITF_DROP_HEIG
         "calibration": attrs.get("calibration"),
         "scale": _scale_record(attrs),
         "time_base": _time_base_record(attrs),
-        "restitution": {"model": "constant", "why": why, **constant},
-        "restitution_vs_speed": speed_law,
+        "restitution": _restitution_record(models, impacts, used),
+        "restitution_models": models["models"],
         "drag": drag,
         "drop_height_m": estimate(summary["drop_height_m"], summary["drop_height_se_m"], "m"),
         "contact_height_m": estimate(summary["contact_height_m"], summary["contact_height_se_m"], "m"),
-        "contact_time": _contact_time(summary, resolvable_rows),
-        "contact_model": _contact_model(resolvable_rows, mass, summary["gravity_m_s2"],
-                                        np.asarray(summary["e_contact_covariance"])),
+        "contact_time": _contact_time(summary, impacts[resolvable]),
+        "contact_model": _contact_model(impacts, np.intersect1d(np.flatnonzero(resolvable), used), mass,
+                                        summary["gravity_m_s2"], np.asarray(summary["e_contact_covariance"])),
         "noise_m": summary["noise_m"],
         "theory": theory,
         "itf": itf,
@@ -236,53 +245,107 @@ def _contact_time(summary, resolvable_rows):
     return {"resolvable": False, "why": why}
 
 
-def _contact_model(resolvable_rows, mass_kg, gravity_m_s2, e_contact_covariance):
-    """Linear contact k, c from the impacts whose contact time is resolved (None if there are none);
-    ``e_contact_covariance`` is that of all impacts' e and contact times (s)."""
-    if resolvable_rows.empty or not mass_kg:
+def fit_rows(impacts):
+    """Positions (in table order) of the impacts that enter every fit: those with ``in_fit`` true.
+
+    Without an ``in_fit`` column every impact enters; an empty cell counts as true (nothing says to
+    leave the impact out), and text (a CSV column with an empty cell is read as text) is true when it
+    reads true, 1 or yes.
+    """
+    if "in_fit" not in impacts:
+        return np.arange(len(impacts))
+
+    def entered(flag):
+        if pd.isna(flag):
+            return True
+        return flag.strip().lower() in ("true", "1", "yes") if isinstance(flag, str) else bool(flag)
+
+    return np.flatnonzero([entered(flag) for flag in impacts["in_fit"]])
+
+
+def _excluded_impacts(impacts, used):
+    """The impacts left out of the fits: number and the analysis' note, in table order."""
+    notes = impacts["note"].fillna("").astype(str).tolist() if "note" in impacts else [""] * len(impacts)
+    return [{"impact": int(impacts["impact"].iloc[i]), "note": notes[i] or "marked not in_fit by the analysis"}
+            for i in np.setdiff1d(np.arange(len(impacts)), used)]
+
+
+#: The fields of the chosen model's record that ``restitution`` repeats (``restitution_models`` has them all).
+_HEADLINE_FIELDS = ("model", "law", "description", "parameters", "n_parameters", "chi2", "dof", "chi2_per_dof",
+                    "p_value", "verdict", "birge_factor", "note", "aic", "bic", "delta_bic")
+
+
+def _restitution_record(models, impacts, used):
+    """``restitution`` of the fit result: the chosen model and why, its headline e at the first fitted
+    impact's speed, that impact's own e, the weights of the headline e over all impacts, which impacts
+    were fitted and which laws could not be."""
+    chosen = models["models"][models["chosen"]]
+    weights = np.zeros(len(impacts))
+    weights[used] = models["headline"]["weights"]
+    first = impacts.iloc[used[0]]
+    return {
+        **{field: chosen[field] for field in _HEADLINE_FIELDS},
+        "why": models["why"],
+        "indistinguishable": models["indistinguishable"],
+        "not_fitted": models["not_fitted"],
+        "covariance_singular": models["covariance_singular"],
+        "e": models["headline"]["e"],
+        "reference_impact": models["reference"]["impact"],
+        "reference_speed_m_s": models["reference"]["speed_m_s"],
+        "e1": estimate(first["e"], first["e_se"], "1"),
+        "weights": weights.tolist(),
+        "n_impacts": int(used.size),
+        "n_impacts_total": len(impacts),
+        "impacts_used": [int(number) for number in impacts["impact"].iloc[used]],
+        "impacts_excluded": _excluded_impacts(impacts, used),
+    }
+
+
+def _contact_model(impacts, rows, mass_kg, gravity_m_s2, e_contact_covariance):
+    """Linear contact k, c from the impacts at positions ``rows`` (resolved contact times, in the fits;
+    None if there are none); ``e_contact_covariance`` is that of all impacts' e and contact times (s)."""
+    if rows.size == 0 or not mass_kg:
         return None
-    physical = resolvable_rows[(resolvable_rows["e"] > 0) & (resolvable_rows["e"] < 1)]
-    if physical.empty:
+    physical = impacts["e"].iloc[rows].to_numpy()
+    rows = rows[(physical > 0) & (physical < 1)]
+    if rows.size == 0:
         return None
-    resolvable_rows = physical
+    used = impacts.iloc[rows]
     n = e_contact_covariance.shape[0] // 2
-    rows = resolvable_rows["impact"].to_numpy() - 1
-    rows = np.concatenate([rows, n + rows])
-    fitted = fit_linear_contact(mass_kg, resolvable_rows["v_in_m_s"], resolvable_rows["e"],
-                                1e-3 * resolvable_rows["t_contact_ms"], e_contact_covariance[np.ix_(rows, rows)],
-                                gravity_m_s2)
+    block = np.concatenate([rows, n + rows])
+    fitted = fit_linear_contact(mass_kg, used["v_in_m_s"], used["e"], 1e-3 * used["t_contact_ms"],
+                                e_contact_covariance[np.ix_(block, block)], gravity_m_s2)
     return {
         "model": "linear (unilateral Kelvin-Voigt): F = max(0, k delta + c delta_dot)",
         "stiffness_n_m": estimate(*fitted["stiffness_n_m"], "N/m"),
         "damping_n_s_m": estimate(*fitted["damping_n_s_m"], "N s/m"),
         "mass_kg": mass_kg,
         "gravity_m_s2": gravity_m_s2,
-        "impact_speed_m_s": float(resolvable_rows["v_in_m_s"].iloc[0]),
-        "n_impacts": len(resolvable_rows),
+        "impact_speed_m_s": float(used["v_in_m_s"].iloc[0]),
+        "n_impacts": len(used),
         "why": "each impact's e and contact time inverted exactly, weighted by inverse variance; the standard "
                "errors propagate the full covariance of all e and contact times (they share flights)",
     }
 
 
-def _itf(ball_type, summary, impacts, constant, speed_law, drop_height_itf, rebound_min, rebound_max, tolerance):
+def _itf(ball_type, summary, impacts, models, used, drop_height_itf, rebound_min, rebound_max, tolerance):
     limits = {"drop_height_m": drop_height_itf, "rebound_min_m": rebound_min, "rebound_max_m": rebound_max,
               "source": "ITF Rules of Tennis, Appendix I"}
     if ball_type != "tennis":
         return {"verdict": "not applicable", "why": f"the ITF rebound window is for tennis balls, this is {ball_type}",
                 "limits": limits}
     # a prediction from another drop height is for a ball in air, with the analysis' drag (fitted, or that of
-    # a smooth sphere of the ball's size where the data could not show drag), and e at the ITF impact speed
+    # a smooth sphere of the ball's size where the data could not show drag), and e of the chosen law (or of
+    # the best law, when no law describes the impacts) at the ITF impact speed
     drag_k, drag_k_se = summary["drag_k_per_m"], summary["drag_k_se_per_m"]
-    e_drag = np.asarray(summary["e_drag_covariance"])
-    e, e_se = constant["e"]["value"], constant["e"]["se"]
-    e_drag_covariance = float(np.asarray(constant["weights"]) @ e_drag)
-    e_source = "the fitted constant e"
-    if speed_law and speed_law["chosen"] != "constant":
-        law = speed_law["models"][speed_law["chosen"]]
-        itf_speed = float(speed_below_apex(drop_height_itf, drag_k, summary["gravity_m_s2"]))
-        e, e_se = (float(x) for x in predict_e(law, itf_speed))
-        e_drag_covariance = float(prediction_covariance(law, itf_speed, e_drag))
-        e_source = f"the {speed_law['chosen']} e(v) law at the ITF impact speed {itf_speed:.2f} m/s"
+    e_drag = np.asarray(summary["e_drag_covariance"])[used]
+    law_name, e_source = prediction_law(models)
+    law = models["models"][law_name]
+    itf_speed = float(speed_below_apex(drop_height_itf, drag_k, summary["gravity_m_s2"]))
+    e, e_se = (float(x) for x in predict_e(law, itf_speed))
+    e_drag_covariance = prediction_covariance(law, itf_speed, e_drag)
+    if law_name != "constant":
+        e_source += f" at the ITF impact speed {itf_speed:.2f} m/s"
     # the length scale's share of the heights' errors is common to both: the measured rebound scaled by
     # 254 cm / H, a ratio of two heights, keeps only the difference of their relative shares
     drop, drop_scale_se = summary["drop_height_m"], summary.get("drop_height_scale_se_m", 0.0)
