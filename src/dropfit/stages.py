@@ -265,7 +265,8 @@ def fit_rows(impacts):
 
 def _excluded_impacts(impacts, used):
     """The impacts left out of the fits: number and the analysis' note, in table order."""
-    notes = impacts["note"].fillna("").astype(str).tolist() if "note" in impacts else [""] * len(impacts)
+    notes = [note if isinstance(note, str) else "" for note in impacts["note"]] if "note" in impacts \
+        else [""] * len(impacts)
     return [{"impact": int(impacts["impact"].iloc[i]), "note": notes[i] or "marked not in_fit by the analysis"}
             for i in np.setdiff1d(np.arange(len(impacts)), used)]
 
