@@ -15,9 +15,29 @@ from __future__ import annotations
 import numpy as np
 
 STANDARD_GRAVITY_M_S2 = 9.80665
+#: Standard error of g where the site is not known: g varies over the Earth's surface by about ±0.3 %
+#: (9.780 m/s² at the equator to 9.832 at the poles, less on mountains), taken as uniform.
+UNKNOWN_SITE_GRAVITY_SE_M_S2 = 0.003 * STANDARD_GRAVITY_M_S2 / np.sqrt(3.0)
+#: Standard error of :func:`normal_gravity`: local anomalies stay within about ±0.01 %.
+NORMAL_GRAVITY_SE_M_S2 = 1e-3
 AIR_DENSITY_KG_M3 = 1.2
 #: Drag coefficient of a smooth sphere at the Reynolds numbers of a drop test (10⁴–10⁵).
 SPHERE_DRAG_COEFFICIENT = 0.5
+
+
+def normal_gravity(latitude_deg, altitude_m=0.0):
+    """g in m/s² at a site: the WGS84 normal gravity (Somigliana) with the free-air correction.
+
+    Parameters
+    ----------
+    latitude_deg : float
+        Geodetic latitude in degrees.
+    altitude_m : float
+        Height above sea level in m.
+    """
+    sin2 = np.sin(np.radians(latitude_deg)) ** 2
+    at_sea_level = 9.7803253359 * (1.0 + 0.00193185265241 * sin2) / np.sqrt(1.0 - 0.00669437999013 * sin2)
+    return float(at_sea_level - 3.086e-6 * altitude_m)
 
 
 def drag_parameter(drag_coefficient, radius_m, mass_kg, air_density_kg_m3=AIR_DENSITY_KG_M3):

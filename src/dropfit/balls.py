@@ -1,0 +1,74 @@
+"""What dropfit assumes about a kind of ball where the recording cannot tell: its contact time and the
+longest contact it can have. Pure data and lookups, no I/O.
+
+The contact time of a ball on a rigid floor falls slowly with the impact speed; for Hertz contact as
+τ ∝ v^(−1/5). It is described here at 1 m/s: τ(v) = τ₁ (v / 1 m/s)^(−CONTACT_TIME_EXPONENT). The
+typical values come from the contact laws of an independent simulator calibrated to published
+behaviour (``refsim/README.md``: a tennis ball 4.5 ms at 7 m/s, a steel ball 0.13 ms, a rubber ball
+about 1 ms, a table-tennis ball 1.0 ms, a glass marble on paper about 1 ms) and the seed's Example 4
+(a tennis ball, 4.36 ms from 254 cm); the standard errors are wide on purpose: the floor is not known.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from .errors import InputError, shown
+
+#: Exponent β of τ ∝ v^(−β) (Hertz contact: 1/5).
+CONTACT_TIME_EXPONENT = 0.2
+#: Standard error of β: laws from linear spring–damper (0) to Hertz (0.2).
+CONTACT_TIME_EXPONENT_SE = 0.06
+
+
+@dataclass(frozen=True)
+class BallKind:
+    """A kind of ball, with contact times at an impact speed of 1 m/s (s).
+
+    Attributes
+    ----------
+    name : str
+        As written in ``ball_type``.
+    contact_time_s, contact_time_se_s : float
+        Typical contact time at 1 m/s on a rigid floor and its standard error (a prior for recordings
+        whose floor is not known).
+    max_contact_time_s : float
+        The longest contact time at 1 m/s a ball of this kind can have on any floor a drop test uses;
+        a longer measured one is an artefact (heights of the ball's bottom taken for its centre, a
+        floor set too low).
+    """
+
+    name: str
+    contact_time_s: float
+    contact_time_se_s: float
+    max_contact_time_s: float
+
+
+def contact_time_at(at_1_m_s, speed_m_s, exponent=CONTACT_TIME_EXPONENT):
+    """A contact time given at 1 m/s (s), at the impact speed ``speed_m_s`` (m/s): τ₁ v^(−β)."""
+    return at_1_m_s * (speed_m_s / 1.0) ** (-exponent)
+
+
+BALL_KINDS = {kind.name: kind for kind in (
+    BallKind("tennis", 6.5e-3, 2.0e-3, 12e-3),
+    BallKind("steel", 0.2e-3, 0.2e-3, 2e-3),
+    BallKind("rubber", 1.3e-3, 0.8e-3, 6e-3),
+    BallKind("table_tennis", 1.0e-3, 0.5e-3, 3e-3),
+    BallKind("marble", 1.0e-3, 1.0e-3, 5e-3),
+    BallKind("other", 2.5e-3, 2.5e-3, 20e-3),
+)}
+
+
+def ball_kind(name):
+    """The :class:`BallKind` of ``name`` (any case; None or empty → ``other``).
+
+    Raises
+    ------
+    InputError
+        For a name that is not a known kind.
+    """
+    key = "other" if name is None or str(name).strip() == "" else str(name).strip().lower()
+    if key not in BALL_KINDS:
+        raise InputError(f"ball type {shown(name)!r} is not one dropfit knows; give one of "
+                         f"{', '.join(BALL_KINDS)}")
+    return BALL_KINDS[key]
