@@ -22,6 +22,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
+from ..balls import ball_kind
 from ..errors import InputError
 from ..numerics import robust_sigma
 from ..physics import STANDARD_GRAVITY_M_S2, flight_height, time_from_apex
@@ -71,7 +72,8 @@ class BounceAnalysis:
 
 def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="auto", contact_height_m=None,
                     source="trajectory", scale_rel_se=0.0, contact_height_se_m=0.0, contact_guard_s=0.0,
-                    nominal_drag_k_per_m=0.0, noise_correlation=0.0):
+                    nominal_drag_k_per_m=0.0, noise_correlation=0.0, gravity_se_m_s2=0.0, gravity_scaled=False,
+                    contact_time_prior_s=None):
     """Segment a drop-test trajectory into flights, fit them and measure every impact.
 
     Parameters
@@ -88,8 +90,9 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
         always fitted. When not fitted it is held at ``nominal_drag_k_per_m``.
     contact_height_m : float, optional
         Centre height in m at which the ball touches the floor (floor + radius), in the frame of
-        ``height_m``. If omitted it is estimated where the flights before and after each impact meet,
-        which assumes contact times short against the sample interval.
+        ``height_m``. If omitted it is modelled with the contact times: every contact lasts
+        τ₁ (v_in / 1 m/s)^(−1/5), and the contact height is where the flights before and after each
+        impact are that far apart in time (:class:`dropfit.analysis.impacts.ImpactQuantities`).
     source : str
         Name of the recording, used in error messages.
     scale_rel_se : float
@@ -119,6 +122,17 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
         e.g. :data:`dropfit.tracking.TRACKED_CENTRE_CORRELATION` for a video. The fit's covariance,
         which assumes independent errors, is multiplied by (1 + ρ)/(1 − ρ), the variance factor of
         an average over AR(1) errors. 0 for a sensor's white noise.
+    gravity_se_m_s2 : float
+        Standard error of ``gravity_m_s2`` (m/s²): 0 for a measured local g, about 0.3 %/√3 where the
+        site is not known (:data:`dropfit.physics.UNKNOWN_SITE_GRAVITY_SE_M_S2`). Its effect on every
+        quantity, with the flights refitted, is added to the covariance.
+    gravity_scaled : bool
+        The heights came from px through a scale from gravity: an error of g then scales every length
+        (heights, speeds) with it and leaves e, times and ratios alone.
+    contact_time_prior_s : (float, float), optional
+        Contact time at 1 m/s (s) and its standard error, the prior of the modelled contact height
+        (:func:`dropfit.balls.ball_kind`); default that of an unknown kind of ball. (0, 0) treats the
+        contacts as instantaneous. Not used with a given ``contact_height_m``.
 
     Returns
     -------
@@ -132,8 +146,10 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
     origin = float(time_s[finite][0]) if finite.any() else 0.0
     segmentation = segment(time_s - origin, height_m, source, acceleration=g)
     notes = list(segmentation.notes)
+    prior = ball_kind(None) if contact_time_prior_s is None else None
+    contact_time_prior = (prior.contact_time_s, prior.contact_time_se_s) if prior else tuple(contact_time_prior_s)
     problem = FitProblem(segmentation.time, segmentation.height, g, contact_height_m, segmentation.noise,
-                         float(contact_guard_s), float(segmentation.time[segmentation.release]))
+                         float(contact_guard_s), float(segmentation.time[segmentation.release]), contact_time_prior)
     bounds = initial_bounds(problem, segmentation, source)
     held_k = float(nominal_drag_k_per_m or 0.0)
     keep = np.ones(problem.t.size, dtype=bool)
@@ -163,15 +179,18 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
     if left_out:
         notes.append(f"{left_out} samples left out as outliers of the flight fit (more than "
                      f"{RESIDUAL_OUTLIER_SIGMAS:g} noise standard deviations off)")
-    return _assemble(fit, bics, problem.subset(keep), origin, source, held_k_se, scale_rel_se,
-                     contact_height_se_m, noise_correlation, segmentation, left_out, notes)
+    uncertainty = {"held_k_se": held_k_se, "scale_rel_se": scale_rel_se, "contact_height_se_m": contact_height_se_m,
+                   "noise_correlation": noise_correlation, "gravity_se_m_s2": float(gravity_se_m_s2),
+                   "gravity_scaled": bool(gravity_scaled)}
+    return _assemble(fit, bics, problem.subset(keep), origin, source, uncertainty, segmentation, left_out, notes)
 
 
 @dataclass
 class FitProblem:
     """What every fit of one recording shares: its samples (s, m; the hand's and the tracking jumps'
     left out), g (m/s²), a given contact height (m, or None), the noise (m), the guard around the
-    contacts (s) and the release time (s), before which flight 0 never starts."""
+    contacts (s), the release time (s), before which flight 0 never starts, and the contact-time
+    prior (s at 1 m/s, and its se) of a modelled contact height."""
 
     t: np.ndarray
     y: np.ndarray
@@ -180,11 +199,16 @@ class FitProblem:
     noise: float
     guard_s: float
     release_time: float
+    contact_time_prior: tuple = (0.0, 0.0)
 
     def subset(self, keep):
         """The same problem on the samples ``keep`` (boolean mask)."""
         return FitProblem(self.t[keep], self.y[keep], self.g, self.contact_height, self.noise, self.guard_s,
-                          self.release_time)
+                          self.release_time, self.contact_time_prior)
+
+    def impact_quantities(self, model):
+        """The impact quantities of a flight model fitted to this problem."""
+        return ImpactQuantities(model, self.contact_height, self.contact_time_prior)
 
 
 @dataclass
@@ -318,7 +342,7 @@ def refine(problem, bounds, with_drag, theta0, fixed_k=0.0):
         return refine(problem, merged, with_drag, theta, fixed_k)
     for _ in range(REFINEMENT_PASSES):
         model, result, counts = fitted
-        quantities = ImpactQuantities(model, problem.contact_height)
+        quantities = problem.impact_quantities(model)
         quantities.set_weights(result)
         values = unpack_quantities(quantities(result.x), quantities.n_impacts)
         y_apex, t_apex, k = model.unpack(result.x)
@@ -339,7 +363,7 @@ def refine(problem, bounds, with_drag, theta0, fixed_k=0.0):
         if shorter is not None and shorter.misfit_cut is None:
             shorter.misfit_cut = misfit
         return shorter
-    quantities = ImpactQuantities(model, problem.contact_height)
+    quantities = problem.impact_quantities(model)
     quantities.set_weights(result)
     return FlightFit(model, result, counts, quantities, bounds)
 
@@ -356,14 +380,12 @@ def impact_notes(e):
     return in_fit, note
 
 
-def _assemble(fit, bics, problem, origin, source, held_k_se, scale_rel_se, contact_height_se_m,
-              noise_correlation, segmentation, residual_outliers_left_out, notes):
+def _assemble(fit, bics, problem, origin, source, uncertainty, segmentation, residual_outliers_left_out, notes):
     """The flights and impacts tables, covariances and summary of the final fit (times shifted back by
-    ``origin``, s)."""
+    ``origin``, s); ``uncertainty``: the keyword arguments of :func:`quantity_covariance`."""
     model, result, counts, quantities, bounds = fit.model, fit.result, fit.counts, fit.quantities, fit.bounds
     theta = result.x
-    parts = quantity_covariance(model, result, quantities, held_k_se, scale_rel_se, contact_height_se_m,
-                                noise_correlation)
+    parts = quantity_covariance(model, result, quantities, **uncertainty)
     cov, cov_theta = parts["covariance"], parts["theta_covariance"]
     vector = quantities(theta)
     se = np.sqrt(np.clip(np.diag(cov), 0.0, None))
@@ -416,7 +438,10 @@ def _assemble(fit, bics, problem, origin, source, held_k_se, scale_rel_se, conta
         "contact_height_m": contact,
         "contact_height_se_m": errors["contact_height_m"],
         "contact_height_source": "given" if quantities.given_contact_height is not None else
-        "estimated where the flights before and after each impact meet",
+        "modelled: the height at which the flights before and after each impact are one contact time apart",
+        "contact_time_1m_s_s": values["contact_time_1m_s_s"],
+        "contact_time_1m_s_se_s": errors["contact_time_1m_s_s"],
+        "contact_time_prior_s": list(quantities.contact_time_prior),
         "drag_model": "quadratic" if model.with_drag else "nominal" if model.fixed_k > 0 else "none",
         "drag_k_per_m": k,
         "drag_k_se_per_m": float(np.sqrt(parts["k_variance"])),
@@ -436,9 +461,11 @@ def _assemble(fit, bics, problem, origin, source, held_k_se, scale_rel_se, conta
         "rest_time_s": rest_time(problem.t, problem.y, contact, problem.noise, IMPACT_DEPTH_IN_NOISE,
                                  after=float(values["t_liftoff_s"][-1])) + origin,
         "gravity_m_s2": problem.g,
+        "gravity_se_m_s2": uncertainty["gravity_se_m_s2"],
+        "gravity_scaled": uncertainty["gravity_scaled"],
         "n_impacts": n,
-        "scale_rel_se": float(scale_rel_se),
-        "noise_correlation": float(noise_correlation),
+        "scale_rel_se": float(uncertainty["scale_rel_se"]),
+        "noise_correlation": float(uncertainty["noise_correlation"]),
         "notes": list(notes),
     }
     e_rows = quantity_index("e", n)

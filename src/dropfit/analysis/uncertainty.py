@@ -1,8 +1,9 @@
 """Uncertainty: the covariance of every impact quantity, from the fit and from what the fit holds fixed.
 
 The statistical part propagates the fit covariance through the impact quantities (delta method). The
-systematic parts are rank-one terms, one per quantity the fit takes as known: a held drag parameter,
-the length scale of a px recording, a given contact height. Each is the total derivative of the
+systematic parts are rank-one terms, one per input the fit takes as known: a held drag parameter, g,
+the length scale of a px recording, a given contact height, or the contact-time prior and exponent
+of a modelled one. Each is the total derivative of the
 quantities (with the flights refitted, linearised) times that input's standard error.
 """
 
@@ -11,7 +12,9 @@ from __future__ import annotations
 import numpy as np
 
 from ..numerics import derivative, jacobian, propagate
+from ..balls import CONTACT_TIME_EXPONENT_SE
 from .flights import fit_covariance
+from .impacts import length_dimension
 
 
 def correlated_noise_factor(correlation):
@@ -24,21 +27,39 @@ def refit_response(result, residual_change):
     return -np.linalg.lstsq(result.jac, residual_change, rcond=None)[0]
 
 
-def fixed_drag_sensitivity(model, result, quantities, quantity_jacobian):
-    """Total derivative of the quantities with respect to a held drag parameter k (per 1/m): the
-    direct change at fixed θ plus the change through θ, refitted by least squares to the new k."""
-    k = model.fixed_k
+def held_input_sensitivity(result, quantities, quantity_jacobian, owner, attribute, step):
+    """Total derivative of the quantities with respect to an input the fit holds fixed (an attribute of
+    the flight model, such as g or a held drag k, or of the impact quantities, such as the contact-time
+    prior): the direct change at fixed θ plus the change through θ, refitted by least squares.
 
-    def at(k_value, function):
-        model.fixed_k = k_value
+    Parameters
+    ----------
+    result : scipy.optimize.OptimizeResult
+        The flight fit.
+    quantities : ImpactQuantities
+        The quantities (their model is ``quantities.model``).
+    quantity_jacobian : numpy.ndarray
+        Derivative of the quantities by θ.
+    owner : object
+        ``quantities.model`` or ``quantities``: the object holding the input.
+    attribute : str
+        The input's attribute name; a tuple attribute's first element is the input.
+    step : float
+        Step of the central difference, in the input's unit.
+    """
+    value = getattr(owner, attribute)
+    model = quantities.model
+
+    def at(moved, function):
+        setattr(owner, attribute, (moved, *value[1:]) if isinstance(value, tuple) else moved)
         try:
             return function(result.x)
         finally:
-            model.fixed_k = k
+            setattr(owner, attribute, value)
 
-    step = 1e-3 * k
-    residual_slope = derivative(lambda value: at(value, model.residuals), k, step)
-    direct = derivative(lambda value: at(value, quantities), k, step)
+    start = value[0] if isinstance(value, tuple) else value
+    residual_slope = derivative(lambda moved: at(moved, model.residuals), start, step)
+    direct = derivative(lambda moved: at(moved, quantities), start, step)
     return direct + quantity_jacobian @ refit_response(result, residual_slope)
 
 
@@ -67,7 +88,7 @@ def contact_height_sensitivity(quantities, theta, step_m=1e-6):
 
 
 def quantity_covariance(model, result, quantities, held_k_se=0.0, scale_rel_se=0.0, contact_height_se_m=0.0,
-                        noise_correlation=0.0):
+                        noise_correlation=0.0, gravity_se_m_s2=0.0, gravity_scaled=False):
     """Covariance of the quantity vector of ``quantities`` at the fit ``result``, with its parts.
 
     Parameters
@@ -82,34 +103,52 @@ def quantity_covariance(model, result, quantities, held_k_se=0.0, scale_rel_se=0
         Standard error (m) of a given contact height.
     noise_correlation : float
         Lag-1 correlation of the height errors; the fit covariance grows by (1 + ρ)/(1 − ρ).
+    gravity_se_m_s2 : float
+        Standard error of g (m/s²).
+    gravity_scaled : bool
+        The heights were brought to m by a scale from gravity: an error of g then scales every length
+        with it and leaves times and ratios alone, instead of moving the fit.
 
     Returns
     -------
     dict
         ``covariance`` of the quantities, ``theta_covariance`` (inflated fit covariance),
-        ``k_variance`` ((1/m)², fitted or held k), ``drag_covariance`` (of each quantity with k) and
-        ``scale_part`` (each quantity's signed share from the scale, same unit as the quantity).
+        ``k_variance`` ((1/m)², fitted or held k), ``drag_covariance`` (of each quantity with k),
+        ``scale_part`` (each quantity's signed share from the scale, same unit as the quantity) and
+        ``systematic_parts`` (name → each quantity's signed share from that held input).
     """
     theta = result.x
     cov_theta = correlated_noise_factor(noise_correlation) * fit_covariance(result)
     vector = quantities(theta)
     jac = jacobian(quantities, theta, model.lower_bounds(theta.size))
     cov = propagate(jac, cov_theta)
+    parts = {}
     if model.with_drag:
         k_variance = float(cov_theta[-1, -1])
         drag_covariance = jac @ cov_theta[:, -1]
     else:
         k_variance = held_k_se**2
-        sensitivity = fixed_drag_sensitivity(model, result, quantities, jac) if model.fixed_k > 0 \
-            else np.zeros(vector.size)
-        cov += k_variance * np.outer(sensitivity, sensitivity)
+        sensitivity = held_input_sensitivity(result, quantities, jac, model, "fixed_k", 1e-3 * model.fixed_k) \
+            if model.fixed_k > 0 else np.zeros(vector.size)
+        parts["drag"] = held_k_se * sensitivity
         drag_covariance = k_variance * sensitivity
+    if gravity_se_m_s2 > 0:
+        parts["gravity"] = (gravity_se_m_s2 / model.g) * vector * length_dimension(quantities.n_impacts) \
+            if gravity_scaled else gravity_se_m_s2 * held_input_sensitivity(result, quantities, jac, model, "g", 1e-4)
+    if quantities.given_contact_height is None:
+        prior, prior_se = quantities.contact_time_prior
+        if prior_se > 0:
+            parts["contact_time_prior"] = prior_se * held_input_sensitivity(
+                result, quantities, jac, quantities, "contact_time_prior", 1e-2 * prior_se)
+        parts["contact_time_exponent"] = CONTACT_TIME_EXPONENT_SE * held_input_sensitivity(
+            result, quantities, jac, quantities, "contact_exponent", 1e-3)
+    elif contact_height_se_m > 0:
+        parts["contact_height"] = contact_height_se_m * contact_height_sensitivity(quantities, theta)
     # the length scale's error moves every quantity together: a rank-one term in their covariance
     scale_part = scale_rel_se * np.nan_to_num(scale_sensitivity(quantities, result)) if scale_rel_se \
         else np.zeros(vector.size)
-    cov += np.outer(scale_part, scale_part)
-    if quantities.given_contact_height is not None and contact_height_se_m > 0:
-        height_part = contact_height_se_m * contact_height_sensitivity(quantities, theta)
-        cov += np.outer(height_part, height_part)
+    for part in [*parts.values(), scale_part]:
+        part = np.nan_to_num(part)
+        cov += np.outer(part, part)
     return {"covariance": cov, "theta_covariance": cov_theta, "k_variance": k_variance,
-            "drag_covariance": drag_covariance, "scale_part": scale_part}
+            "drag_covariance": drag_covariance, "scale_part": scale_part, "systematic_parts": parts}
