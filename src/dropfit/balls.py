@@ -1,5 +1,9 @@
-"""What dropfit assumes about a kind of ball where the recording cannot tell: its contact time and the
-longest contact it can have. Pure data and lookups, no I/O.
+"""What dropfit assumes about a kind of ball where the recording cannot tell: its drag coefficient,
+its contact time and the longest contact it can have. Pure data and lookups, no I/O.
+
+Drag coefficients at the Reynolds numbers of a drop test (10³–10⁵): a smooth sphere 0.47, a tennis
+ball's felt 0.5–0.6 (Mehta & Pallis 2001: 0.55 for new balls), a table-tennis ball 0.45–0.5; an
+unknown kind 0.5 with a quarter of it as its standard error.
 
 The contact time of a ball on a rigid floor falls slowly with the impact speed; for Hertz contact as
 τ ∝ v^(−1/5). It is described here at 1 m/s: τ(v) = τ₁ (v / 1 m/s)^(−CONTACT_TIME_EXPONENT). The
@@ -15,10 +19,10 @@ from dataclasses import dataclass
 
 from .errors import InputError, shown
 
-#: Exponent β of τ ∝ v^(−β) (Hertz contact: 1/5).
-CONTACT_TIME_EXPONENT = 0.2
-#: Standard error of β: laws from linear spring–damper (0) to Hertz (0.2).
-CONTACT_TIME_EXPONENT_SE = 0.06
+#: Exponent β of τ ∝ v^(−β) of an unknown kind, the prior of its fit: between a linear spring–damper
+#: (0) and Hertz contact (0.2), with a standard error that spans both.
+CONTACT_TIME_EXPONENT = 0.1
+CONTACT_TIME_EXPONENT_SE = 0.07
 
 
 @dataclass(frozen=True)
@@ -36,12 +40,22 @@ class BallKind:
         The longest contact time at 1 m/s a ball of this kind can have on any floor a drop test uses;
         a longer measured one is an artefact (heights of the ball's bottom taken for its centre, a
         floor set too low).
+    drag_coefficient, drag_coefficient_se : float
+        C_d of quadratic air drag and its standard error (dimensionless).
+    contact_time_exponent, contact_time_exponent_se : float
+        β of τ ∝ v^(−β) and its standard error: 0.2 for the Hertz contact of solid elastic balls, near
+        0 for a shell that deforms like a spring (a table-tennis ball), between for a felt-covered
+        pressurised tennis ball.
     """
 
     name: str
     contact_time_s: float
     contact_time_se_s: float
     max_contact_time_s: float
+    drag_coefficient: float = 0.5
+    drag_coefficient_se: float = 0.125
+    contact_time_exponent: float = CONTACT_TIME_EXPONENT
+    contact_time_exponent_se: float = CONTACT_TIME_EXPONENT_SE
 
 
 def contact_time_at(at_1_m_s, speed_m_s, exponent=CONTACT_TIME_EXPONENT):
@@ -50,11 +64,11 @@ def contact_time_at(at_1_m_s, speed_m_s, exponent=CONTACT_TIME_EXPONENT):
 
 
 BALL_KINDS = {kind.name: kind for kind in (
-    BallKind("tennis", 6.5e-3, 2.0e-3, 12e-3),
-    BallKind("steel", 0.2e-3, 0.2e-3, 2e-3),
-    BallKind("rubber", 1.3e-3, 0.8e-3, 6e-3),
-    BallKind("table_tennis", 1.0e-3, 0.5e-3, 3e-3),
-    BallKind("marble", 1.0e-3, 1.0e-3, 5e-3),
+    BallKind("tennis", 6.5e-3, 2.0e-3, 12e-3, 0.55, 0.06, 0.15, 0.05),
+    BallKind("steel", 0.2e-3, 0.2e-3, 2e-3, 0.47, 0.05, 0.2, 0.03),
+    BallKind("rubber", 1.3e-3, 0.8e-3, 6e-3, 0.47, 0.05, 0.15, 0.05),
+    BallKind("table_tennis", 1.0e-3, 0.5e-3, 3e-3, 0.47, 0.05, 0.05, 0.05),
+    BallKind("marble", 1.0e-3, 1.0e-3, 5e-3, 0.47, 0.05, 0.15, 0.05),
     BallKind("other", 2.5e-3, 2.5e-3, 20e-3),
 )}
 

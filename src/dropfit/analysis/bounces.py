@@ -73,7 +73,7 @@ class BounceAnalysis:
 def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="auto", contact_height_m=None,
                     source="trajectory", scale_rel_se=0.0, contact_height_se_m=0.0, contact_guard_s=0.0,
                     nominal_drag_k_per_m=0.0, noise_correlation=0.0, gravity_se_m_s2=0.0, gravity_scaled=False,
-                    contact_time_prior_s=None):
+                    contact_time_prior_s=None, contact_time_exponent=None):
     """Segment a drop-test trajectory into flights, fit them and measure every impact.
 
     Parameters
@@ -133,6 +133,8 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
         Contact time at 1 m/s (s) and its standard error, the prior of the modelled contact height
         (:func:`dropfit.balls.ball_kind`); default that of an unknown kind of ball. (0, 0) treats the
         contacts as instantaneous. Not used with a given ``contact_height_m``.
+    contact_time_exponent : (float, float), optional
+        β of τ ∝ v^(−β) and its standard error, the prior of its fit; default that of an unknown kind.
 
     Returns
     -------
@@ -146,10 +148,13 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
     origin = float(time_s[finite][0]) if finite.any() else 0.0
     segmentation = segment(time_s - origin, height_m, source, acceleration=g)
     notes = list(segmentation.notes)
-    prior = ball_kind(None) if contact_time_prior_s is None else None
-    contact_time_prior = (prior.contact_time_s, prior.contact_time_se_s) if prior else tuple(contact_time_prior_s)
+    unknown = ball_kind(None)
+    contact_prior = (tuple(contact_time_prior_s) if contact_time_prior_s is not None
+                     else (unknown.contact_time_s, unknown.contact_time_se_s),
+                     tuple(contact_time_exponent) if contact_time_exponent is not None
+                     else (unknown.contact_time_exponent, unknown.contact_time_exponent_se))
     problem = FitProblem(segmentation.time, segmentation.height, g, contact_height_m, segmentation.noise,
-                         float(contact_guard_s), float(segmentation.time[segmentation.release]), contact_time_prior)
+                         float(contact_guard_s), float(segmentation.time[segmentation.release]), contact_prior)
     bounds = initial_bounds(problem, segmentation, source)
     held_k = float(nominal_drag_k_per_m or 0.0)
     keep = np.ones(problem.t.size, dtype=bool)
@@ -189,8 +194,8 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
 class FitProblem:
     """What every fit of one recording shares: its samples (s, m; the hand's and the tracking jumps'
     left out), g (m/s²), a given contact height (m, or None), the noise (m), the guard around the
-    contacts (s), the release time (s), before which flight 0 never starts, and the contact-time
-    prior (s at 1 m/s, and its se) of a modelled contact height."""
+    contacts (s), the release time (s), before which flight 0 never starts, and the priors of a
+    modelled contact height: the contact time at 1 m/s (s) and its exponent, each with its se."""
 
     t: np.ndarray
     y: np.ndarray
@@ -199,16 +204,16 @@ class FitProblem:
     noise: float
     guard_s: float
     release_time: float
-    contact_time_prior: tuple = (0.0, 0.0)
+    contact_prior: tuple = ((0.0, 0.0), (0.0, 0.0))
 
     def subset(self, keep):
         """The same problem on the samples ``keep`` (boolean mask)."""
         return FitProblem(self.t[keep], self.y[keep], self.g, self.contact_height, self.noise, self.guard_s,
-                          self.release_time, self.contact_time_prior)
+                          self.release_time, self.contact_prior)
 
     def impact_quantities(self, model):
         """The impact quantities of a flight model fitted to this problem."""
-        return ImpactQuantities(model, self.contact_height, self.contact_time_prior)
+        return ImpactQuantities(model, self.contact_height, *self.contact_prior)
 
 
 @dataclass
@@ -442,6 +447,8 @@ def _assemble(fit, bics, problem, origin, source, uncertainty, segmentation, res
         "contact_time_1m_s_s": values["contact_time_1m_s_s"],
         "contact_time_1m_s_se_s": errors["contact_time_1m_s_s"],
         "contact_time_prior_s": list(quantities.contact_time_prior),
+        "contact_time_exponent": values["contact_time_exponent"],
+        "contact_time_exponent_se": errors["contact_time_exponent"],
         "drag_model": "quadratic" if model.with_drag else "nominal" if model.fixed_k > 0 else "none",
         "drag_k_per_m": k,
         "drag_k_se_per_m": float(np.sqrt(parts["k_variance"])),

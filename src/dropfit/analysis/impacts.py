@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import brentq
 
-from ..balls import CONTACT_TIME_EXPONENT
+from ..balls import CONTACT_TIME_EXPONENT, CONTACT_TIME_EXPONENT_SE
 from ..numerics import jacobian, propagate
 from ..physics import speed_below_apex, time_from_apex
 from .flights import fit_covariance
@@ -52,8 +52,9 @@ class ImpactQuantities:
     τ_n = τ₁ (v_in,n / 1 m/s)^(−β) (:mod:`dropfit.balls`), and the contact height c is the height at
     which the fitted flights before and after each impact are that far apart in time. Where the
     flights meet (τ = 0) lies below c by about τ v_in v_out / (v_in + v_out): 13 mm for a tennis ball's
-    4.5 ms at 7 m/s. c and τ₁ are fitted to all impacts at once (their speeds differ, so both are
-    measurable), by weighted least squares with the prior ``contact_time_prior`` on τ₁.
+    4.5 ms at 7 m/s. c, τ₁ and β are fitted to all impacts at once (their speeds differ, so they are
+    measurable), by weighted least squares with the priors ``contact_time_prior`` on τ₁ and
+    ``contact_exponent`` on β.
 
     Parameters
     ----------
@@ -63,17 +64,17 @@ class ImpactQuantities:
         Given contact height (m) in the frame of the heights.
     contact_time_prior : (float, float)
         τ₁ (s, at 1 m/s) and its standard error; (0, 0) for instantaneous contacts.
-    contact_exponent : float
-        β of τ ∝ v^(−β).
+    contact_exponent : (float, float)
+        β of τ ∝ v^(−β) and its standard error (0 holds β).
     """
 
     def __init__(self, model, contact_height_m=None, contact_time_prior=(0.0, 0.0),
-                 contact_exponent=CONTACT_TIME_EXPONENT):
+                 contact_exponent=(CONTACT_TIME_EXPONENT, CONTACT_TIME_EXPONENT_SE)):
         self.model = model
         self.n_impacts = model.n_flights - 1
         self.given_contact_height = contact_height_m
         self.contact_time_prior = tuple(float(value) for value in contact_time_prior)
-        self.contact_exponent = float(contact_exponent)
+        self.contact_exponent = tuple(float(value) for value in contact_exponent)
         self.weights = np.ones(self.n_impacts)
         self._meetings = {}  # (y_apex, t_apex before, after, k, g) → meeting height, m
 
@@ -110,34 +111,47 @@ class ImpactQuantities:
             return liftoff - touchdown, 1.0 / v_in + 1.0 / v_out, v_in
 
     def modelled_contact(self, theta):
-        """Contact height c (m) and contact time at 1 m/s τ₁ (s) that fit the flights and the prior.
+        """Contact height c (m), contact time at 1 m/s τ₁ (s) and exponent β that fit the flights and
+        the priors.
 
         Gauss–Newton on τ_n(c) = τ₁ v_n^(−β): each step linearises the gap between the flights at c and
-        solves the weighted least squares for (c, τ₁) with the prior as one more observation.
+        the law in β, and solves the weighted least squares for (Δc, τ₁, Δβ) with each prior as one
+        more observation (a prior with standard error 0 holds its parameter).
         """
         contact = self._start_height(theta)
-        prior, prior_se = self.contact_time_prior
+        (tau, tau_se), (beta_prior, beta_se) = self.contact_time_prior, self.contact_exponent
+        beta = beta_prior
         for _ in range(CONTACT_MODEL_ITERATIONS):
             gap, slope, speed = self.contact_times(theta, contact)
-            use = np.isfinite(gap) & np.isfinite(slope) & (self.weights > 0)
+            use = np.isfinite(gap) & np.isfinite(slope) & (speed > 0) & (self.weights > 0)
             if not use.any():
-                return contact, prior
-            w = self.weights[use]
-            x = speed[use] ** (-self.contact_exponent)
-            # unknowns (Δc, τ₁): gap + slope Δc − x τ₁ = 0 at every impact, τ₁ = prior ± prior_se
-            design = np.column_stack([slope[use], -x])
-            target = -gap[use]
-            if prior_se > 0:
-                normal = design.T @ (w[:, None] * design) + np.diag([0.0, 1.0 / prior_se**2])
-                right = design.T @ (w * target) + np.array([0.0, prior / prior_se**2])
-                step, tau = np.linalg.solve(normal, right)
-            else:  # τ₁ held at the prior
-                tau = prior
-                step = float(np.sum(w * slope[use] * (target + x * tau)) / np.sum(w * slope[use] ** 2))
-            contact += step
-            if abs(step) < 1e-12:
                 break
-        return contact, tau
+            law = speed[use] ** (-beta)
+            # gap + slope Δc − law τ₁ + τ₁ law ln v Δβ = 0 at every impact
+            design = np.column_stack([slope[use], -law, tau * law * np.log(speed[use])])
+            normal = design.T @ (self.weights[use, None] * design)
+            right = design.T @ (self.weights[use] * -gap[use])
+            held = []
+            for j, (prior, se, value) in ((1, (self.contact_time_prior[0], tau_se, 0.0)),
+                                          (2, (beta_prior, beta_se, beta))):
+                if se > 0:
+                    normal[j, j] += 1.0 / se**2
+                    right[j] += (prior - value) / se**2
+                else:
+                    held.append(j)
+            free = [j for j in range(3) if j not in held]
+            # a held τ₁ enters the gap as known; a held β needs no column
+            if 1 in held:
+                right -= normal[:, 1] * self.contact_time_prior[0]
+            solution = np.zeros(3)
+            solution[1] = self.contact_time_prior[0] if 1 in held else 0.0
+            # least squares, not a plain solve: without contact times β has no column (noise-free data)
+            solution[free] = np.linalg.lstsq(normal[np.ix_(free, free)], right[free], rcond=None)[0]
+            contact += solution[0]
+            tau, beta = solution[1], beta + solution[2]
+            if abs(solution[0]) < 1e-12:
+                break
+        return contact, tau, beta
 
     def contact_height(self, theta):
         """The given contact height, or the modelled one (m)."""
@@ -163,14 +177,14 @@ class ImpactQuantities:
         return moved
 
     def __call__(self, theta):
-        """Vector: contact height, contact time at 1 m/s, then per impact (t_td, t_lo, v_in, v_out, e,
+        """Vector: contact height, contact time at 1 m/s and its exponent, then per impact (t_td, t_lo, v_in, v_out, e,
         e_h, ftr, flight time, contact time), apex heights."""
         g = self.model.g
         y_apex, t_apex, k = self.model.unpack(theta)
         if self.given_contact_height is not None:
-            contact, tau = float(self.given_contact_height), np.nan
+            contact, tau, beta = float(self.given_contact_height), np.nan, np.nan
         else:
-            contact, tau = self.modelled_contact(theta)
+            contact, tau, beta = self.modelled_contact(theta)
         height_above = y_apex - contact
         before, after = height_above[:-1], height_above[1:]
         with np.errstate(invalid="ignore", divide="ignore"):
@@ -184,11 +198,11 @@ class ImpactQuantities:
             time_ratio = np.concatenate([[np.nan], flight_time[1:] / flight_time[:-1]])
             columns = [touchdown, liftoff, v_in, v_out, v_out / v_in, np.sqrt(after / before), time_ratio,
                        flight_time, liftoff - touchdown]
-        return np.concatenate([[contact, tau], np.concatenate(columns), height_above])
+        return np.concatenate([[contact, tau, beta], np.concatenate(columns), height_above])
 
 
 #: Quantities of the recording at the start of the vector of :class:`ImpactQuantities`.
-RECORDING_QUANTITIES = ["contact_height_m", "contact_time_1m_s_s"]
+RECORDING_QUANTITIES = ["contact_height_m", "contact_time_1m_s_s", "contact_time_exponent"]
 
 
 def unpack_quantities(vector, n_impacts):
@@ -205,7 +219,7 @@ def unpack_quantities(vector, n_impacts):
 def length_dimension(n_impacts):
     """The power of length in the unit of every element of the quantity vector (m, m/s: 1; s, ratios: 0)."""
     per_impact = {"v_in_m_s": 1.0, "v_out_m_s": 1.0}
-    return np.concatenate([[1.0, 0.0]] + [np.full(n_impacts, per_impact.get(name, 0.0)) for name in IMPACT_COLUMNS]
+    return np.concatenate([[1.0, 0.0, 0.0]] + [np.full(n_impacts, per_impact.get(name, 0.0)) for name in IMPACT_COLUMNS]
                           + [np.ones(n_impacts + 1)])
 
 

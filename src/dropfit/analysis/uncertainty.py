@@ -12,7 +12,6 @@ from __future__ import annotations
 import numpy as np
 
 from ..numerics import derivative, jacobian, propagate
-from ..balls import CONTACT_TIME_EXPONENT_SE
 from .flights import fit_covariance
 from .impacts import length_dimension
 
@@ -140,8 +139,10 @@ def quantity_covariance(model, result, quantities, held_k_se=0.0, scale_rel_se=0
         if prior_se > 0:
             parts["contact_time_prior"] = prior_se * held_input_sensitivity(
                 result, quantities, jac, quantities, "contact_time_prior", 1e-2 * prior_se)
-        parts["contact_time_exponent"] = CONTACT_TIME_EXPONENT_SE * held_input_sensitivity(
-            result, quantities, jac, quantities, "contact_exponent", 1e-3)
+        exponent_se = quantities.contact_exponent[1]
+        if exponent_se > 0:
+            parts["contact_time_exponent"] = exponent_se * held_input_sensitivity(
+                result, quantities, jac, quantities, "contact_exponent", 1e-2 * exponent_se)
     elif contact_height_se_m > 0:
         parts["contact_height"] = contact_height_se_m * contact_height_sensitivity(quantities, theta)
     # the length scale's error moves every quantity together: a rank-one term in their covariance
