@@ -24,7 +24,7 @@ import pandas as pd
 from .analysis import MIN_SAMPLES_PER_FLIGHT, analyse_bounces, segment
 from .analysis.flights import known_g_parabola
 from .analysis.impacts import meeting_height
-from .analysis.segment import last_flight_end
+from .analysis.segmentation import last_flight_end
 from .errors import InputError
 from .numerics import jacobian
 from .physics import STANDARD_GRAVITY_M_S2

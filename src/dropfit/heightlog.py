@@ -23,7 +23,7 @@ import xarray as xr
 
 from .errors import InputError, one_line, shown, shown_path
 from .files import check_input_file, read_bytes
-from .physics import STANDARD_GRAVITY_M_S2
+from .physics import STANDARD_GRAVITY_M_S2, drag_parameter
 
 TIME_UNITS_S = {"s": 1.0, "ms": 1e-3}
 LENGTH_UNITS_M = {"m": 1.0, "cm": 1e-2, "mm": 1e-3}
@@ -319,13 +319,15 @@ def make_trajectory(time_s, height_m, source, calibration, attrs=None):
     return dataset
 
 
-def flight_acceleration(time_s, height_px, source="log"):
-    """Downward acceleration of the flights in pixel units, with air drag where the data show it.
+def flight_acceleration(time_s, height_px, source="log", nominal_drag_k_per_m=0.0, nominal_drag_relative_se=0.25,
+                        gravity_m_s2=STANDARD_GRAVITY_M_S2):
+    """Downward acceleration of the flights in pixel units, averaged over the drag models the data allow.
 
     The flights are found by dropfit's segmentation (:func:`dropfit.analysis.segment`: tracking jumps
-    and the hand's samples left out) and fitted jointly with a free acceleration and a quadratic drag
-    shared by all of them (:func:`dropfit.analysis.shared_acceleration_with_drag`). The axis direction
-    comes from the impacts (:func:`dropfit.analysis.vertical_sign`).
+    and the hand's samples left out, and the samples that may touch the floor) and fitted jointly
+    with a shared acceleration and, by model, no drag, a fitted drag or the ball's own
+    (:func:`dropfit.analysis.shared_acceleration_with_drag`). The axis direction comes from the impacts
+    (:func:`dropfit.analysis.vertical_sign`).
 
     Parameters
     ----------
@@ -335,6 +337,10 @@ def flight_acceleration(time_s, height_px, source="log"):
         Positions in px along the vertical pixel axis, NaN where not measured.
     source : str
         Recording name for error messages.
+    nominal_drag_k_per_m, nominal_drag_relative_se : float
+        The ball's drag parameter (1/m; 0 when its size and mass are not known) and its relative se.
+    gravity_m_s2 : float
+        g in m/s², to bring the drag parameter to px.
 
     Returns
     -------
@@ -342,39 +348,81 @@ def flight_acceleration(time_s, height_px, source="log"):
         The axis direction (−1 for image rows, which point down, +1 for up) and the fit in px/s²
         (drag k in 1/px).
     """
-    from .analysis import MIN_SAMPLES_PER_FLIGHT, segment, shared_acceleration_with_drag, vertical_sign
+    from .analysis import MIN_SAMPLES_PER_FLIGHT, segment, shared_acceleration, shared_acceleration_with_drag, \
+        vertical_sign
+    from .analysis.bounces import MAX_PLAUSIBLE_DRAG_K_PER_M
+    from .analysis.flights import parabola_start
+    from .analysis.segmentation import CONTACT_CLEARANCE_S, free_flights
 
     sign = vertical_sign(time_s, height_px)
     found = segment(time_s - time_s[0], sign * height_px, source)
-    # the flights from the release to the last impact (the one after it may end in a hand or at rest)
-    edges = np.concatenate([[found.release - 1], found.impacts])
-    pieces = [(a + 1, b) for a, b in zip(edges[:-1], edges[1:]) if b - a - 1 >= MIN_SAMPLES_PER_FLIGHT]
+    t, y = found.time, found.height
+    clear = max(1, int(round(CONTACT_CLEARANCE_S / float(np.median(np.diff(t))))))
+    # the flights from the release to the last impact (the one after it may end in a hand or at rest),
+    # clear of the samples that may touch the floor
+    edges = np.concatenate([[found.release - clear], found.impacts])
+    pieces = [(t[a + clear: b - clear + 1], y[a + clear: b - clear + 1]) for a, b in zip(edges[:-1], edges[1:])
+              if b - a - 2 * clear + 1 >= MIN_SAMPLES_PER_FLIGHT]
+    pieces = pieces[: free_flights(pieces, found.acceleration)]
+    if pieces:  # the drop starts at its apex: a ball held still at the top is not yet falling
+        y_apex, t_apex = parabola_start(*pieces[0], found.acceleration)
+        pieces[0] = tuple(part[pieces[0][0] >= t_apex] for part in pieces[0])
+        pieces = pieces if pieces[0][0].size >= MIN_SAMPLES_PER_FLIGHT else pieces[1:]
     if not pieces:
         raise InputError(f"{shown_path(source)}: cannot calibrate pixels from gravity: no flight with at least "
                          f"{MIN_SAMPLES_PER_FLIGHT} samples between bounces; give scale_m_per_px")
-    fit = shared_acceleration_with_drag([(found.time[a:b], found.height[a:b]) for a, b in pieces])
+    rough, _ = shared_acceleration(pieces)
+    metres_per_px = gravity_m_s2 / rough if rough > 0 else 0.0
+    nominal = nominal_drag_k_per_m * metres_per_px
+    fit = shared_acceleration_with_drag(pieces, nominal, nominal_drag_relative_se * nominal,
+                                        MAX_PLAUSIBLE_DRAG_K_PER_M * metres_per_px)
     if fit.acceleration <= 0:
         raise InputError(f"{shown_path(source)}: cannot calibrate pixels from gravity: the flights do not curve downwards")
     return sign, fit
 
 
-def scale_from_gravity(time_s, height_px, gravity_m_s2=STANDARD_GRAVITY_M_S2, source="log"):
+def scale_from_gravity(time_s, height_px, gravity_m_s2=STANDARD_GRAVITY_M_S2, source="log", nominal_drag_k_per_m=0.0,
+                       nominal_drag_relative_se=0.25):
     """Metres per pixel from the curvature of the flights, drag included: s = g / A_px.
 
-    A_px is the flights' shared acceleration in px/s² from :func:`flight_acceleration`.
+    A_px is the flights' shared acceleration in px/s² from :func:`flight_acceleration`; its standard
+    error includes what the choice of drag model does to it. The uncertainty of g itself is not in it:
+    an analysis carries that (it scales every length with the scale).
 
     Returns
     -------
-    (float, float)
-        Signed scale in m/px (negative for an axis pointing down) and its standard error in m/px.
+    (float, float, dict)
+        Signed scale in m/px (negative for an axis pointing down), its standard error in m/px, and the
+        attributes that describe the calibration (drag model, each model's scale and weight, a note).
     """
-    sign, fit = flight_acceleration(time_s, height_px, source)
+    sign, fit = flight_acceleration(time_s, height_px, source, nominal_drag_k_per_m, nominal_drag_relative_se,
+                                    gravity_m_s2)
     scale = gravity_m_s2 / fit.acceleration
     relative_se = fit.acceleration_se / fit.acceleration
     if relative_se > MAX_GRAVITY_SCALE_RELATIVE_SE:
         raise InputError(f"{shown_path(source)}: cannot calibrate pixels from gravity: the flights give the scale only to "
                          f"{100 * relative_se:.1f} %; give scale_m_per_px")
-    return sign * scale, scale * relative_se
+    details = {"gravity_scale_drag_model": fit.drag_model}
+    for name, model in fit.models.items():
+        key = name.split(" ")[0]
+        details[f"gravity_scale_{key}_m_per_px"] = gravity_m_s2 / model["acceleration"]
+        details[f"gravity_scale_{key}_weight"] = model.get("weight", 0.0)
+    if fit.note:
+        details["gravity_scale_note"] = fit.note
+    return sign * scale, scale * relative_se, details
+
+
+def nominal_drag_of(attrs):
+    """The drag parameter k (1/m) of a smooth ball of the kind, size and mass in ``attrs`` and its relative
+    standard error; (0, 0) when the size or mass is not known."""
+    from .balls import ball_kind
+
+    radius, mass = attrs.get("ball_radius_m"), attrs.get("ball_mass_kg")
+    if not (radius and mass):
+        return 0.0, 0.0
+    kind = ball_kind(attrs.get("ball_type"))
+    return (float(drag_parameter(kind.drag_coefficient, radius, mass)),
+            kind.drag_coefficient_se / kind.drag_coefficient)
 
 
 def trajectory_from_log(path, scale_m_per_px=None, gravity_m_s2=STANDARD_GRAVITY_M_S2, attrs=None):
@@ -408,9 +456,9 @@ def trajectory_from_log(path, scale_m_per_px=None, gravity_m_s2=STANDARD_GRAVITY
                              f"rises: if the pixel axis points down (image rows), give a negative scale")
         extra["scale_m_per_px"] = float(scale_m_per_px)
         return make_trajectory(time, _checked(heights, path, extra), path, "given scale in m/px", extra)
-    scale, scale_se = scale_from_gravity(time, height, gravity_m_s2, source=str(path))
-    extra.update(scale_m_per_px=float(scale), scale_se_m_per_px=float(scale_se),
-                 scale_rel_se=float(scale_se / abs(scale)))
+    scale, scale_se, details = scale_from_gravity(time, height, gravity_m_s2, str(path), *nominal_drag_of(extra))
+    extra.update(details, scale_m_per_px=float(scale), scale_se_m_per_px=float(scale_se),
+                 scale_rel_se=float(scale_se / abs(scale)), scale_source="gravity")
     return make_trajectory(time, _checked(height * scale, path, extra), path, "scale from gravity (flight curvature)",
                            extra)
 

@@ -55,7 +55,12 @@ def least_squares_covariance(jacobian, residuals, n_parameters=None):
     p = jacobian.shape[1] if n_parameters is None else n_parameters
     dof = max(residuals.size - p, 1)
     sigma2 = float(residuals @ residuals) / dof
-    return sigma2 * np.linalg.pinv(jacobian.T @ jacobian)
+    # columns scaled to unit norm first: parameters of very different size (a drag k of 1e-5 1/px beside
+    # an acceleration of 1e4 px/s²) would otherwise lose a direction to the pseudo-inverse's cut-off
+    norms = np.linalg.norm(jacobian, axis=0)
+    norms[norms == 0] = 1.0
+    scaled = jacobian / norms
+    return sigma2 * np.linalg.pinv(scaled.T @ scaled) / np.outer(norms, norms)
 
 
 def linear_fit(design, target):

@@ -22,7 +22,7 @@ import numpy as np
 from . import video_limits
 from .calibration import SCALE_PRECEDENCE, choose_scale, infer_capture_rate, ruler_scale
 from .errors import InputError, shown_path
-from .heightlog import check_floor, flight_acceleration, make_trajectory, scale_from_gravity
+from .heightlog import check_floor, flight_acceleration, make_trajectory, nominal_drag_of, scale_from_gravity
 from .numerics import robust_sigma
 from .physics import STANDARD_GRAVITY_M_S2
 
@@ -224,7 +224,7 @@ def _capture_time(table, rows, scales, capture_fps, gravity_m_s2, extra):
                                        "gravity (ball radius, ruler or given scale) to check it")
         return time
     try:
-        _, fit = flight_acceleration(time, rows, str(extra["video"]))
+        _, fit = flight_acceleration(time, rows, str(extra["video"]), *nominal_drag_of(extra), gravity_m_s2)
     except InputError as error:
         extra.update(capture_fps=file_fps, capture_fps_source="container",
                      capture_rate_note=f"the file's rate is taken as the capture rate ({error})")
@@ -254,7 +254,8 @@ def _record_scales(scales, extra):
 def _add_gravity_scale(scales, time, rows, gravity_m_s2, path, extra):
     """Add the scale from gravity (drag included) to ``scales``, or note in ``extra`` why there is none."""
     try:
-        signed, se = scale_from_gravity(time, rows, gravity_m_s2, source=str(path))
+        signed, se, details = scale_from_gravity(time, rows, gravity_m_s2, str(path), *nominal_drag_of(extra))
+        extra.update(details)
     except InputError as error:
         extra["gravity_calibration_failed"] = str(error)
         return

@@ -1,13 +1,13 @@
 """Analysis of a trajectory: segment → fit the flights → impacts → uncertainty.
 
-The modules follow the data: :mod:`.segment` finds the release and the bounces, :mod:`.flights` fits
+The modules follow the data: :mod:`.segmentation` finds the release and the bounces, :mod:`.flights` fits
 the flights, :mod:`.impacts` computes every impact quantity from the fit, :mod:`.uncertainty` their
 covariance, and :mod:`.bounces` runs the steps with their defaults (:func:`analyse_bounces`).
 """
 
 from .bounces import NOMINAL_DRAG_RELATIVE_SE, BounceAnalysis, analyse_bounces
 from .flights import MIN_SAMPLES_PER_FLIGHT, SharedAcceleration, shared_acceleration, shared_acceleration_with_drag
-from .segment import Segmentation, estimate_noise, find_impacts, segment, vertical_sign
+from .segmentation import Segmentation, estimate_noise, find_impacts, segment, vertical_sign
 from .tables import se_column_name
 
 __all__ = [

@@ -1,7 +1,7 @@
 """From a height-against-time trajectory to flights and impacts, with standard errors.
 
 :func:`analyse_bounces` applies the defaults and runs the pure steps in the order of the data:
-segmentation (:mod:`.segment`), the joint flight fit and its refinement (:mod:`.flights`), the
+segmentation (:mod:`.segmentation`), the joint flight fit and its refinement (:mod:`.flights`), the
 impact quantities (:mod:`.impacts`) and their covariance (:mod:`.uncertainty`).
 
 Every flight is fitted with the closed-form vertical flight of :mod:`dropfit.physics` (known g, two
@@ -30,7 +30,7 @@ from .flights import (MIN_SAMPLES_PER_FLIGHT, FlightModel, bic, combine_with_pri
                       fit_flights, parabola_start)
 from .impacts import (IMPACT_COLUMNS, ImpactQuantities, contact_resolvable, quantity_index, rest_time,
                       unpack_quantities)
-from .segment import IMPACT_DEPTH_IN_NOISE, RELEASE_SIGMAS, check_free_fall, flight_bounds, segment
+from .segmentation import IMPACT_DEPTH_IN_NOISE, RELEASE_SIGMAS, check_free_fall, flight_bounds, segment
 from .tables import add_with_interval, se_column_name
 from .uncertainty import quantity_covariance
 
@@ -73,7 +73,8 @@ class BounceAnalysis:
 def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="auto", contact_height_m=None,
                     source="trajectory", scale_rel_se=0.0, contact_height_se_m=0.0, contact_guard_s=0.0,
                     nominal_drag_k_per_m=0.0, noise_correlation=0.0, gravity_se_m_s2=0.0, gravity_scaled=False,
-                    contact_time_prior_s=None, contact_time_exponent=None):
+                    contact_time_prior_s=None, contact_time_exponent=None,
+                    nominal_drag_relative_se=NOMINAL_DRAG_RELATIVE_SE):
     """Segment a drop-test trajectory into flights, fit them and measure every impact.
 
     Parameters
@@ -114,9 +115,11 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
     nominal_drag_k_per_m : float
         Prior value of the drag parameter in 1/m, e.g. that of a smooth sphere of the ball's size and
         mass (:func:`dropfit.physics.drag_parameter`), with relative standard error
-        :data:`NOMINAL_DRAG_RELATIVE_SE`. When BIC keeps k from being fitted freely, k is held at this
+        ``nominal_drag_relative_se``. When BIC keeps k from being fitted freely, k is held at this
         prior combined with the free fit's k (inverse-variance weights), and its standard error is
-        propagated into every impact quantity. 0 = no drag.
+        propagated into every impact quantity. When k is fitted freely and comes out implausible (see
+        :data:`PLAUSIBLE_DRAG_RATIO`), the note says so and the difference from the analysis with k held
+        at this value is added to every uncertainty. 0 = no drag known.
     noise_correlation : float
         Lag-1 autocorrelation (dimensionless, 0 ≤ ρ < 1) of the height errors of successive samples,
         e.g. :data:`dropfit.tracking.TRACKED_CENTRE_CORRELATION` for a video. The fit's covariance,
@@ -135,6 +138,8 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
         contacts as instantaneous. Not used with a given ``contact_height_m``.
     contact_time_exponent : (float, float), optional
         β of τ ∝ v^(−β) and its standard error, the prior of its fit; default that of an unknown kind.
+    nominal_drag_relative_se : float
+        Relative standard error of ``nominal_drag_k_per_m`` (the ball kind's C_d se over its C_d).
 
     Returns
     -------
@@ -159,7 +164,8 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
     held_k = float(nominal_drag_k_per_m or 0.0)
     keep = np.ones(problem.t.size, dtype=bool)
     while True:
-        fit, bics, held_k_se = fit_with_drag_choice(problem.subset(keep), bounds, drag, held_k, source)
+        fit, bics, held_k_se = fit_with_drag_choice(problem.subset(keep), bounds, drag, held_k,
+                                                    float(nominal_drag_relative_se), source)
         earlier_release = release_extension(fit, problem)
         if earlier_release is not None and earlier_release < problem.release_time:
             problem.release_time = earlier_release
@@ -177,6 +183,15 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
         notes.append(f"impact {unresolved + 1}: its rebound rises less than {HOP_RESOLUTION_IN_NOISE:g} noise standard "
                      f"deviations above the contact height, below the resolution; the bounce sequence ends before it")
         bounds = fit.bounds[: unresolved + 1]
+    release_time = float(fit.bounds[0][0]) + origin
+    notes = [note for note in notes if not note.startswith("the ball was held")]
+    hand = int(np.count_nonzero(segmentation.time + origin < release_time - 1e-6))
+    if hand:
+        notes.append(f"the ball was held or moved by hand until {release_time:.4f} s: the {hand} samples before the "
+                     f"free fall are left out")
+    extra_parts, drag_note = implausible_drag(fit, problem.subset(keep), held_k)
+    if drag_note:
+        notes.append(drag_note)
     if fit.misfit_cut is not None:
         notes.append(f"flight {fit.misfit_cut}: its residuals are far larger than the noise (a bounce too shallow to "
                      f"detect, or not a free flight); the bounce sequence ends before it")
@@ -186,7 +201,7 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
                      f"{RESIDUAL_OUTLIER_SIGMAS:g} noise standard deviations off)")
     uncertainty = {"held_k_se": held_k_se, "scale_rel_se": scale_rel_se, "contact_height_se_m": contact_height_se_m,
                    "noise_correlation": noise_correlation, "gravity_se_m_s2": float(gravity_se_m_s2),
-                   "gravity_scaled": bool(gravity_scaled)}
+                   "gravity_scaled": bool(gravity_scaled), "extra_parts": extra_parts}
     return _assemble(fit, bics, problem.subset(keep), origin, source, uncertainty, segmentation, left_out, notes)
 
 
@@ -248,10 +263,10 @@ def initial_bounds(problem, segmentation, source):
     return bounds
 
 
-def fit_with_drag_choice(problem, bounds, drag, held_k, source):
+def fit_with_drag_choice(problem, bounds, drag, held_k, held_k_relative_se, source):
     """Fit the flights in ``bounds`` with and (``drag="auto"``) without a free drag parameter; keep
-    the one the BIC prefers. Without a free k, k is held at ``held_k`` (1/m) combined with what the
-    free fit says about it.
+    the one the BIC prefers. Without a free k, k is held at ``held_k`` (1/m, relative se
+    ``held_k_relative_se``) combined with what the free fit says about it.
 
     Returns
     -------
@@ -266,7 +281,7 @@ def fit_with_drag_choice(problem, bounds, drag, held_k, source):
         starts.extend(parabola_start(t[inside], y[inside], g))
     with_drag = drag != "off"
     theta0 = np.append(starts, 1e-3) if with_drag else np.asarray(starts)
-    held_k_se = NOMINAL_DRAG_RELATIVE_SE * held_k
+    held_k_se = held_k_relative_se * held_k
     fit = refine(problem, bounds, with_drag, theta0, held_k)
     if fit is None:
         raise InputError(f"{source}: the flights could not be fitted (too few samples between bounces)")
@@ -289,6 +304,45 @@ RESIDUAL_OUTLIER_SIGMAS = 5.0
 MAX_RESIDUAL_OUTLIER_FRACTION = 0.02
 #: A rebound must rise this many noise standard deviations above the contact height to be resolved.
 HOP_RESOLUTION_IN_NOISE = 2.0
+
+
+#: A fitted drag k more than this many times that of a smooth sphere of the ball's size and mass, or
+#: less than its inverse, is more (or less) than air can do to a ball (C_d of real balls: 0.25–0.6).
+PLAUSIBLE_DRAG_RATIO = 2.5
+#: Without the ball's size and mass: the largest k of a common ball (a table-tennis ball: 0.14 1/m).
+MAX_PLAUSIBLE_DRAG_K_PER_M = 0.3
+
+
+def implausible_drag(fit, problem, nominal_k):
+    """Whether a freely fitted drag k is implausible, and if so its systematic part and note.
+
+    Returns
+    -------
+    (dict, str or None)
+        ``{"implausible_drag": part}`` — the difference of every quantity from the analysis with k held at
+        ``nominal_k`` (1/m), to be added to their covariance — and the note; ``({}, None)`` when k was
+        not fitted or is plausible.
+    """
+    if not fit.model.with_drag:
+        return {}, None
+    k = float(fit.result.x[-1])
+    if nominal_k > 0:
+        ratio = k / nominal_k
+        if 1.0 / PLAUSIBLE_DRAG_RATIO <= ratio <= PLAUSIBLE_DRAG_RATIO:
+            return {}, None
+        what = f"{ratio:.2g} times that of a smooth sphere of this size and mass"
+    elif k <= MAX_PLAUSIBLE_DRAG_K_PER_M:
+        return {}, None
+    else:
+        what = f"more than that of any common ball ({MAX_PLAUSIBLE_DRAG_K_PER_M:g} 1/m)"
+    note = (f"the fitted air drag k = {k:.3g} 1/m is {what}: the flights' curvature changes with speed for "
+            f"another reason too (a scale that is not uniform, a tilted camera, a tracking bias)")
+    held = refine(problem, fit.bounds, False, fit.result.x[:-1], nominal_k)
+    if held is None or held.quantities.n_impacts != fit.quantities.n_impacts:
+        return {}, note + "; the analysis with a sphere's drag could not be compared"
+    difference = held.quantities(held.result.x) - fit.quantities(fit.result.x)
+    return {"implausible_drag": difference}, note + (
+        "; the difference from the analysis with a sphere's drag is added to every uncertainty")
 
 
 def release_extension(fit, problem):

@@ -8,7 +8,7 @@ criterion that decides whether drag is fitted.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy import stats
@@ -231,11 +231,17 @@ class SharedAcceleration:
     Attributes
     ----------
     acceleration, acceleration_se : float
-        Downward acceleration without drag (L/s²) and its standard error.
+        Downward acceleration without drag (L/s²) and its standard error, averaged over the drag models
+        the data allow, weighted by their evidence.
     drag_k, drag_k_se : float
-        Quadratic-drag parameter (1/L) and its standard error; 0 for the model without drag.
+        Quadratic-drag parameter (1/L) and its standard error of the model with most weight.
     drag_model : str
-        ``"quadratic"`` or ``"none"``, chosen by the Bayesian information criterion.
+        ``"none"``, ``"quadratic"`` (k fitted) or ``"nominal"`` (k held at the ball's), the model with most
+        weight.
+    models : dict
+        Per model: ``acceleration``, ``acceleration_se``, ``drag_k``, ``bic`` and ``weight``.
+    note : str or None
+        Why a model was left out (a fitted k that air cannot give).
     """
 
     acceleration: float
@@ -243,21 +249,37 @@ class SharedAcceleration:
     drag_k: float
     drag_k_se: float
     drag_model: str
+    models: dict = field(default_factory=dict)
+    note: str | None = None
 
 
-def shared_acceleration_with_drag(pieces):
-    """Free-fall acceleration shared by several flights, with a shared quadratic drag if the data ask.
+#: A fitted drag k within this factor of the ball's nominal one is air drag; beyond it, something else
+#: bends the flights (C_d of real balls spans 0.25–0.6 against the nominal 0.5).
+PLAUSIBLE_DRAG_RATIO = 2.5
+
+
+def shared_acceleration_with_drag(pieces, nominal_k=0.0, nominal_k_se=0.0, max_k=np.inf):
+    """Free-fall acceleration shared by several flights, averaged over the drag models the data allow.
 
     Each flight is the closed form of :func:`dropfit.physics.flight_height` (its own apex time and
-    height) with a shared acceleration A and drag parameter k ≥ 0: ÿ = −A − k ẏ|ẏ|. Without drag
-    the curvature of a fall underestimates A by a fraction of order k v² / A (about 0.4 % for a
-    tennis ball from 254 cm). The drag term is kept only when the Bayesian information criterion
-    prefers it. k in 1/L does not depend on the time unit, so A scales as (time unit)⁻² alone.
+    height) with a shared acceleration A and drag parameter k: ÿ = −A − k ẏ|ẏ|. Without drag the
+    curvature of a fall underestimates A by a fraction of order k v² / A (about 0.4 % for a tennis ball
+    from 254 cm). Three models: no drag; k fitted; and, when the ball is known, k held at its nominal
+    value (its standard error carried into A). A fitted k outside ``nominal_k`` × (1/2.5 … 2.5), or
+    above ``max_k`` when the ball is not known, is not air drag: that model is left out, and the
+    difference it makes is added to A's uncertainty, since something else bends the flights. The
+    others are averaged with weights exp(−BIC/2) (Bayesian model averaging: A's variance is the
+    weighted variance within plus between the models). k in 1/L does not depend on the time unit,
+    so A scales as (time unit)⁻² alone.
 
     Parameters
     ----------
     pieces : list of (numpy.ndarray, numpy.ndarray)
         Times (s) and heights (any length unit L, up) of each flight.
+    nominal_k, nominal_k_se : float
+        The ball's drag parameter in 1/L and its standard error (0: not known).
+    max_k : float
+        The largest plausible k in 1/L when the ball is not known.
 
     Returns
     -------
@@ -268,26 +290,59 @@ def shared_acceleration_with_drag(pieces):
         return SharedAcceleration(start, start_se, 0.0, 0.0, "none")
     theta0 = []
     for time, height in pieces:
-        theta0.extend(parabola_start(time, height, start))
+        theta0.extend(parabola_start(time - time[0], height, start))
     n = len(pieces)
 
-    def residuals(theta):
-        k = theta[2 * n + 1] if theta.size > 2 * n + 1 else 0.0
-        return np.concatenate([flight_height(time, theta[2 * j + 1], theta[2 * j], k, theta[2 * n]) - height
-                               for j, (time, height) in enumerate(pieces)])
+    def fit(k):
+        """Least-squares fit with k free (None) or held; its A, se and BIC, and k (1/L)."""
+        extra = [start, 0.0] if k is None else [start]
 
-    fits = {}
-    for model, extra in (("none", [start]), ("quadratic", [start, 0.0])):
+        def residuals(theta):
+            drag = theta[2 * n + 1] if k is None else k
+            return np.concatenate([flight_height(time - time[0], theta[2 * j + 1], theta[2 * j], drag, theta[2 * n])
+                                   - height for j, (time, height) in enumerate(pieces)])
+
         theta = np.array(theta0 + extra)
         lower = np.full(theta.size, -np.inf)
         lower[2 * n] = 0.0  # the acceleration points down
-        if model == "quadratic":
+        if k is None:
             lower[-1] = 0.0
-        fits[model] = least_squares(residuals, theta, bounds=(lower, np.inf), x_scale="jac", xtol=1e-12,
-                                    ftol=1e-12)
-    model = "quadratic" if bic(fits["quadratic"]) < bic(fits["none"]) else "none"
-    result = fits[model]
-    se = np.sqrt(np.clip(np.diag(fit_covariance(result)), 0.0, None))
-    drag = model == "quadratic"
-    return SharedAcceleration(float(result.x[2 * n]), float(se[2 * n]), float(result.x[-1]) if drag else 0.0,
-                              float(se[-1]) if drag else 0.0, model)
+        result = least_squares(residuals, theta, bounds=(lower, np.inf), x_scale="jac", xtol=1e-12, ftol=1e-12)
+        se = np.sqrt(np.clip(np.diag(fit_covariance(result)), 0.0, None))
+        return {"acceleration": float(result.x[2 * n]), "acceleration_se": float(se[2 * n]),
+                "drag_k": float(result.x[-1]) if k is None else float(k),
+                "drag_k_se": float(se[-1]) if k is None else 0.0, "bic": bic(result)}
+
+    models = {"none": fit(0.0), "quadratic": fit(None)}
+    if nominal_k > 0:
+        models["nominal"] = fit(nominal_k)
+        if nominal_k_se > 0:  # the held k's uncertainty moves A: a systematic part of its se
+            slope = (fit(nominal_k + nominal_k_se)["acceleration"] - fit(max(nominal_k - nominal_k_se, 0.0))
+                     ["acceleration"]) / (nominal_k + nominal_k_se - max(nominal_k - nominal_k_se, 0.0))
+            models["nominal"]["acceleration_se"] = float(np.hypot(models["nominal"]["acceleration_se"],
+                                                                  slope * nominal_k_se))
+            models["nominal"]["drag_k_se"] = nominal_k_se
+    k, k_se = models["quadratic"]["drag_k"], models["quadratic"]["drag_k_se"]
+    # implausible only when k's own 95 % interval misses the plausible range
+    low, high = (nominal_k / PLAUSIBLE_DRAG_RATIO, PLAUSIBLE_DRAG_RATIO * nominal_k) if nominal_k > 0 else (0.0, max_k)
+    plausible = k - 2 * k_se <= high and k + 2 * k_se >= low
+    implausible = None if plausible else models.pop("quadratic")
+    best = min(model["bic"] for model in models.values())
+    for model in models.values():
+        model["weight"] = float(np.exp(-0.5 * (model["bic"] - best)))
+    total = sum(model["weight"] for model in models.values())
+    for model in models.values():
+        model["weight"] /= total
+    mean = sum(model["weight"] * model["acceleration"] for model in models.values())
+    variance = sum(model["weight"] * (model["acceleration_se"] ** 2 + (model["acceleration"] - mean) ** 2)
+                   for model in models.values())
+    note = None
+    if implausible is not None:
+        variance += (0.5 * (implausible["acceleration"] - mean)) ** 2
+        models["quadratic (left out)"] = implausible
+        note = (f"a fitted drag of k = {k:.3g} 1/px is "
+                + (f"{k / nominal_k:.2g} times the ball's" if nominal_k > 0 else "more than any ball's")
+                + ": not air drag; the scale's uncertainty includes half the difference that fit makes")
+    chosen = max((name for name in models if "left out" not in name), key=lambda name: models[name]["weight"])
+    return SharedAcceleration(float(mean), float(np.sqrt(variance)), models[chosen]["drag_k"],
+                              models[chosen]["drag_k_se"], chosen, models, note)

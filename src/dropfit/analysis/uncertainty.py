@@ -87,7 +87,7 @@ def contact_height_sensitivity(quantities, theta, step_m=1e-6):
 
 
 def quantity_covariance(model, result, quantities, held_k_se=0.0, scale_rel_se=0.0, contact_height_se_m=0.0,
-                        noise_correlation=0.0, gravity_se_m_s2=0.0, gravity_scaled=False):
+                        noise_correlation=0.0, gravity_se_m_s2=0.0, gravity_scaled=False, extra_parts=None):
     """Covariance of the quantity vector of ``quantities`` at the fit ``result``, with its parts.
 
     Parameters
@@ -107,6 +107,8 @@ def quantity_covariance(model, result, quantities, held_k_se=0.0, scale_rel_se=0
     gravity_scaled : bool
         The heights were brought to m by a scale from gravity: an error of g then scales every length
         with it and leaves times and ratios alone, instead of moving the fit.
+    extra_parts : dict, optional
+        More systematic parts, name → each quantity's signed share (same layout as the vector).
 
     Returns
     -------
@@ -121,7 +123,7 @@ def quantity_covariance(model, result, quantities, held_k_se=0.0, scale_rel_se=0
     vector = quantities(theta)
     jac = jacobian(quantities, theta, model.lower_bounds(theta.size))
     cov = propagate(jac, cov_theta)
-    parts = {}
+    parts = dict(extra_parts or {})
     if model.with_drag:
         k_variance = float(cov_theta[-1, -1])
         drag_covariance = jac @ cov_theta[:, -1]

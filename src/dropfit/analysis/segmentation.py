@@ -288,14 +288,14 @@ def find_release(t, y, noise, dip, acceleration):
         earlier = np.column_stack([np.ones(start), tau[:start], tau[:start] ** 2])
         predicted_variance = np.einsum("ij,jk,ik->i", earlier, covariance, earlier)
         # a parabola misses a long fall with drag (by 0.3 mm over 254 cm): judge by what it misses so far
-        scale = max(noise, float(np.sqrt(np.mean((y[start:end] - design[:-1] @ coef) ** 2))))
+        scale = max(noise, robust_sigma(y[start:end] - design[:-1] @ coef))
         misfit = np.abs(y[:start] - earlier @ coef) > RELEASE_SIGMAS * np.sqrt(scale**2 + predicted_variance)
         failing = np.flatnonzero(misfit)
         new_start = int(failing[-1]) + 1 if failing.size else 0
         if new_start == start:
             return start
-        # extend, but no farther than doubling the stretch, so that the fit improves as it grows
-        start = max(new_start, start - max(end - start, MIN_SAMPLES_PER_FLIGHT))
+        # extend by at most a quarter of the stretch: a far extrapolation is too uncertain to tell the hand
+        start = max(new_start, start - max((end - start) // 4, MIN_SAMPLES_PER_FLIGHT))
 
 
 def segment(time_s, height, source="trajectory", acceleration=None):
@@ -350,8 +350,8 @@ def segment(time_s, height, source="trajectory", acceleration=None):
         notes.append(f"{outliers.size} samples left out as tracking jumps (runs of up to {MAX_OUTLIER_RUN} samples "
                      f"displaced from the track and back)")
     if release > 0:
-        notes.append(f"the ball was held or moved by hand until {t[release]:.4g} s: the {release} samples before "
-                     f"the free fall are left out")
+        notes.append(f"the ball was held or moved by hand before the release: the {release} samples before the "
+                     f"free fall are left out")
     return Segmentation(time=t, height=y, noise=noise, release=release, impacts=dips, acceleration=float(acceleration),
                         outliers=outliers, hand_samples=release, notes=notes)
 
@@ -413,6 +413,28 @@ def flight_bounds(t, y, release, minima, noise, contact_height=None):
     return bounds
 
 
+def free_flights(pieces, acceleration):
+    """How many of the first ``pieces`` are free flights: the sequence ends at the first whose own
+    curvature lies outside HIDDEN_IMPACT_ACCELERATION_FRACTION … 1/HIDDEN_IMPACT_ACCELERATION_FRACTION
+    of ``acceleration`` by more than HIDDEN_IMPACT_SIGMAS standard errors. A piece that curves far less
+    holds a bounce the detector missed, or the ball rolling and hopping below the resolution at the end;
+    one that curves far more is not in free flight (a hand).
+
+    Parameters
+    ----------
+    pieces : list of (numpy.ndarray, numpy.ndarray)
+        Times (s) and heights (length unit L, up) of each flight, in order.
+    acceleration : float
+        Downward acceleration of a free flight (L/s²).
+    """
+    low, high = HIDDEN_IMPACT_ACCELERATION_FRACTION * acceleration, acceleration / HIDDEN_IMPACT_ACCELERATION_FRACTION
+    for i, piece in enumerate(pieces):
+        own, own_se = shared_acceleration([piece])
+        if (low - own > HIDDEN_IMPACT_SIGMAS * own_se) or (own - high > HIDDEN_IMPACT_SIGMAS * own_se):
+            return i
+    return len(pieces)
+
+
 def check_free_fall(t, y, bounds, g, source):
     """Raise InputError unless the flights, fitted with a free curvature, fall with about g.
 
@@ -429,12 +451,7 @@ def check_free_fall(t, y, bounds, g, source):
     """
     inside = [(t > lo) & (t < hi) for lo, hi in bounds]
     pieces = [(t[mask], y[mask]) for mask in inside]
-    kept = len(pieces)
-    for i, piece in enumerate(pieces):
-        own, own_se = shared_acceleration([piece])
-        if own < HIDDEN_IMPACT_ACCELERATION_FRACTION * g and g - own > HIDDEN_IMPACT_SIGMAS * own_se:
-            kept = i
-            break
+    kept = free_flights(pieces, g)
     acceleration, _ = shared_acceleration(pieces[: max(kept, 1)])
     if not abs(acceleration / g - 1.0) < FREE_FALL_TOLERANCE:
         raise InputError(f"{source}: the flights fall with {acceleration:.4g} m/s², not g = {g:g} m/s²: check the "
