@@ -425,8 +425,13 @@ def nominal_drag_of(attrs):
             kind.drag_coefficient_se / kind.drag_coefficient)
 
 
-def trajectory_from_log(path, scale_m_per_px=None, gravity_m_s2=STANDARD_GRAVITY_M_S2, attrs=None):
-    """Read a height log and convert it to the trajectory dataset (heights in m, up).
+#: The point of the ball a log may give, and how many radii its centre lies above it.
+HEIGHT_REFERENCES = {"centre": 0.0, "bottom": 1.0, "top": -1.0}
+
+
+def trajectory_from_log(path, scale_m_per_px=None, gravity_m_s2=STANDARD_GRAVITY_M_S2, attrs=None,
+                        height_reference="centre"):
+    """Read a height log and convert it to the trajectory dataset (heights of the ball's centre in m, up).
 
     Parameters
     ----------
@@ -438,29 +443,43 @@ def trajectory_from_log(path, scale_m_per_px=None, gravity_m_s2=STANDARD_GRAVITY
     gravity_m_s2 : float
         Gravitational acceleration in m/s², for the gravity calibration.
     attrs : dict, optional
-        Extra attributes for the dataset.
+        Extra attributes for the dataset (``ball_radius_m`` is needed for a log of the bottom or top).
+    height_reference : {"centre", "bottom", "top"}
+        The point of the ball the log gives: its centre, its bottom (an ultrasonic sensor looking up, a
+        tracker on the ball's lowest point) or its top; the trajectory is of the centre, one radius
+        above the bottom (below the top).
     """
     time, height, unit = read_height_log(path)
     extra = dict(attrs or {})
     extra["log_unit"] = unit
+    if height_reference not in HEIGHT_REFERENCES:
+        raise InputError(f"{shown_path(path)}: height_reference {shown(height_reference)!r} is not one of "
+                         f"{', '.join(HEIGHT_REFERENCES)}")
+    radius = extra.get("ball_radius_m")
+    if HEIGHT_REFERENCES[height_reference] and not radius:
+        raise InputError(f"{shown_path(path)}: the log gives the ball's {height_reference}: give the ball radius "
+                         f"(ball_radius_m) to find its centre")
+    extra["height_reference"] = height_reference
+    to_centre = HEIGHT_REFERENCES[height_reference] * (radius or 0.0)
     if unit != "px":
-        return make_trajectory(time, _checked(height * LENGTH_UNITS_M[unit], path, extra), path,
+        return make_trajectory(time, _checked(height * LENGTH_UNITS_M[unit] + to_centre, path, extra), path,
                                f"unit conversion from {unit}", extra)
     if scale_m_per_px is not None:
         if scale_m_per_px == 0:
             raise InputError(f"{shown_path(path)}: scale_m_per_px is 0; give metres per pixel (negative for image rows)")
+        from .analysis import vertical_sign
+
         heights = height * scale_m_per_px
-        finite = heights[np.isfinite(heights)]
-        if finite[0] < np.median(finite):
-            raise InputError(f"{shown_path(path)}: with scale_m_per_px = {scale_m_per_px:g} the ball starts low and "
-                             f"rises: if the pixel axis points down (image rows), give a negative scale")
+        if vertical_sign(time, heights) < 0:
+            raise InputError(f"{shown_path(path)}: with scale_m_per_px = {scale_m_per_px:g} the ball bounces "
+                             f"downwards: if the pixel axis points down (image rows), give a negative scale")
         extra["scale_m_per_px"] = float(scale_m_per_px)
-        return make_trajectory(time, _checked(heights, path, extra), path, "given scale in m/px", extra)
+        return make_trajectory(time, _checked(heights + to_centre, path, extra), path, "given scale in m/px", extra)
     scale, scale_se, details = scale_from_gravity(time, height, gravity_m_s2, str(path), *nominal_drag_of(extra))
     extra.update(details, scale_m_per_px=float(scale), scale_se_m_per_px=float(scale_se),
                  scale_rel_se=float(scale_se / abs(scale)), scale_source="gravity")
-    return make_trajectory(time, _checked(height * scale, path, extra), path, "scale from gravity (flight curvature)",
-                           extra)
+    return make_trajectory(time, _checked(height * scale + to_centre, path, extra), path,
+                           "scale from gravity (flight curvature)", extra)
 
 
 def _checked(height_m, path, attrs):
@@ -490,9 +509,11 @@ def check_floor(height_m, attrs, path):
     low = float(np.partition(height_m, min(2, height_m.size - 1))[min(2, height_m.size - 1)])  # past two spikes
     lowest_possible = floor + 0.5 * radius  # the centre of a ball flattened to half its radius
     if low < lowest_possible - 0.005 - 0.01 * span:
+        bottom = radius > 0 and abs(low - floor) < 0.3 * radius and attrs.get("height_reference") == "centre"
+        advice = ("the heights look like the ball's bottom: set height_reference bottom" if bottom else
+                  "give floor_m as the floor's height in the log's frame, m, and check the radius")
         raise InputError(f"{shown_path(path)}: the ball's centre comes down to {low:.4g} m, below the floor "
-                         f"(floor_m = {floor:g} m) plus half the ball's radius ({radius:g} m); give floor_m as the "
-                         f"floor's height in the log's frame, m, and check the radius")
+                         f"(floor_m = {floor:g} m) plus half the ball's radius ({radius:g} m); {advice}")
     gap = low - (floor + radius)
     if gap > max(0.5 * span, 0.05):
         raise InputError(f"{shown_path(path)}: the ball's centre stays {gap:.3g} m above the contact height (floor_m "

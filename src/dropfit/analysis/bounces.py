@@ -22,7 +22,7 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-from ..balls import ball_kind
+from ..balls import ball_kind, contact_time_at
 from ..errors import InputError
 from ..numerics import robust_sigma
 from ..physics import STANDARD_GRAVITY_M_S2, flight_height, time_from_apex
@@ -74,7 +74,7 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
                     source="trajectory", scale_rel_se=0.0, contact_height_se_m=0.0, contact_guard_s=0.0,
                     nominal_drag_k_per_m=0.0, noise_correlation=0.0, gravity_se_m_s2=0.0, gravity_scaled=False,
                     contact_time_prior_s=None, contact_time_exponent=None,
-                    nominal_drag_relative_se=NOMINAL_DRAG_RELATIVE_SE):
+                    nominal_drag_relative_se=NOMINAL_DRAG_RELATIVE_SE, max_contact_time_s=None, ball_radius_m=None):
     """Segment a drop-test trajectory into flights, fit them and measure every impact.
 
     Parameters
@@ -140,6 +140,12 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
         β of τ ∝ v^(−β) and its standard error, the prior of its fit; default that of an unknown kind.
     nominal_drag_relative_se : float
         Relative standard error of ``nominal_drag_k_per_m`` (the ball kind's C_d se over its C_d).
+    max_contact_time_s : float, optional
+        The longest contact time at 1 m/s the ball can have (s; it scales as v^(−β) with the prior β);
+        default that of an unknown kind. A longer one is noted and never reported as resolvable.
+    ball_radius_m : float, optional
+        The ball's radius (m): with a given contact height, a log of the ball's bottom or top taken for
+        its centre shows as the flights meeting about a radius below or above it, and the note says so.
 
     Returns
     -------
@@ -162,6 +168,8 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
                          float(contact_guard_s), float(segmentation.time[segmentation.release]), contact_prior)
     bounds = initial_bounds(problem, segmentation, source)
     held_k = float(nominal_drag_k_per_m or 0.0)
+    longest = (unknown.max_contact_time_s if max_contact_time_s is None else float(max_contact_time_s),
+               contact_prior[1][0])
     keep = np.ones(problem.t.size, dtype=bool)
     while True:
         fit, bics, held_k_se = fit_with_drag_choice(problem.subset(keep), bounds, drag, held_k,
@@ -176,7 +184,14 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
             continue
         unresolved = first_unresolved_impact(fit, problem.noise)
         if unresolved is None:
-            break
+            floor_note = implausible_contact_height(fit, longest, ball_radius_m)
+            if floor_note is None:
+                break
+            # a contact height the flights contradict is not a measurement: model it from the flights
+            notes.append(floor_note)
+            problem.contact_height = None
+            bounds = initial_bounds(problem, segmentation, source)
+            continue
         if unresolved == 0:
             raise InputError(f"{source}: the first rebound does not rise clearly above the contact height: no impact "
                              f"is resolved (the ball may not bounce, or the floor is set too high)")
@@ -199,10 +214,12 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
     if left_out:
         notes.append(f"{left_out} samples left out as outliers of the flight fit (more than "
                      f"{RESIDUAL_OUTLIER_SIGMAS:g} noise standard deviations off)")
+    kinds = {"longest_s": longest[0], "exponent": longest[1], "radius_m": ball_radius_m}
     uncertainty = {"held_k_se": held_k_se, "scale_rel_se": scale_rel_se, "contact_height_se_m": contact_height_se_m,
                    "noise_correlation": noise_correlation, "gravity_se_m_s2": float(gravity_se_m_s2),
                    "gravity_scaled": bool(gravity_scaled), "extra_parts": extra_parts}
-    return _assemble(fit, bics, problem.subset(keep), origin, source, uncertainty, segmentation, left_out, notes)
+    return _assemble(fit, bics, problem.subset(keep), origin, source, uncertainty, segmentation, left_out, notes,
+                     kinds)
 
 
 @dataclass
@@ -345,6 +362,47 @@ def implausible_drag(fit, problem, nominal_k):
         "; the difference from the analysis with a sphere's drag is added to every uncertainty")
 
 
+#: A given contact height is rejected when the contacts it implies last this many times longer than
+#: the ball can have (the contact-time check of the report flags smaller excesses).
+CONTACT_HEIGHT_REJECTION_FACTOR = 1.5
+
+
+def implausible_contact_height(fit, longest, radius_m):
+    """A note if the given contact height makes the contacts far longer than the ball can have (a log of
+    the ball's bottom taken for its centre, a floor set too low), else None.
+
+    ``longest``: the longest contact time at 1 m/s (s) and its exponent.
+    """
+    quantities = fit.quantities
+    if quantities.given_contact_height is None:
+        return None
+    values = unpack_quantities(quantities(fit.result.x), quantities.n_impacts)
+    limit = contact_time_at(longest[0], values["v_in_m_s"], longest[1])
+    excess = values["t_contact_s"] / limit
+    if not np.nanmax(excess) > CONTACT_HEIGHT_REJECTION_FACTOR:
+        return None
+    first = int(np.nanargmax(excess > CONTACT_HEIGHT_REJECTION_FACTOR))
+    return (f"the given floor makes impact {first + 1}'s contact last {1e3 * values['t_contact_s'][first]:.3g} ms, "
+            f"more than this kind of ball can (at most {1e3 * limit[first]:.2g} ms)"
+            + reference_hint(quantities, fit.result.x, radius_m)
+            + "; the floor is not used: the contact height is modelled from the flights")
+
+
+def reference_hint(quantities, theta, radius_m):
+    """Why the flights may not fit a given contact height: a log of the ball's bottom or top taken for
+    its centre puts where the flights meet about a radius below or above it ("" when it does not)."""
+    if radius_m is None:
+        return ""
+    modelled = quantities.with_contact_height(None).modelled_contact(theta)[0]
+    offset = float(quantities.given_contact_height - modelled)
+    for point, sign in (("bottom", 1.0), ("top", -1.0)):
+        if abs(sign * offset - radius_m) < 0.3 * radius_m:
+            return (f": the flights meet {abs(offset) * 1e3:.0f} mm {'below' if sign > 0 else 'above'} the floor "
+                    f"plus the radius, about one radius: the heights look like the ball's {point}, not its "
+                    f"centre (set height_reference {point})")
+    return ": the floor may be set too low (check floor_m)"
+
+
 def release_extension(fit, problem):
     """Time (s) of the earliest sample before flight 0's start from which every sample fits the fitted
     flight 0 within RELEASE_SIGMAS noise standard deviations, back to its apex; None if no earlier sample
@@ -439,9 +497,10 @@ def impact_notes(e):
     return in_fit, note
 
 
-def _assemble(fit, bics, problem, origin, source, uncertainty, segmentation, residual_outliers_left_out, notes):
+def _assemble(fit, bics, problem, origin, source, uncertainty, segmentation, residual_outliers_left_out, notes, ball):
     """The flights and impacts tables, covariances and summary of the final fit (times shifted back by
-    ``origin``, s); ``uncertainty``: the keyword arguments of :func:`quantity_covariance`."""
+    ``origin``, s); ``uncertainty``: the keyword arguments of :func:`quantity_covariance`; ``ball``: the
+    longest contact time at 1 m/s (s), its exponent and the ball's radius (m)."""
     model, result, counts, quantities, bounds = fit.model, fit.result, fit.counts, fit.quantities, fit.bounds
     theta = result.x
     parts = quantity_covariance(model, result, quantities, **uncertainty)
@@ -481,8 +540,16 @@ def _assemble(fit, bics, problem, origin, source, uncertainty, segmentation, res
                          f"the floor is lower than that; check floor_m and the ball radius")
     add_with_interval(impacts, "t_contact_ms", contact_ms, contact_se_ms)
     sample_interval = float(np.median(np.diff(problem.t)))
-    impacts["contact_resolvable"] = contact_resolvable(contact_ms, contact_se_ms, sample_interval,
-                                                       quantities.given_contact_height is not None)
+    longest_ms = 1e3 * contact_time_at(ball["longest_s"], values["v_in_m_s"], ball["exponent"])
+    given = quantities.given_contact_height is not None
+    impacts["contact_resolvable"] = contact_resolvable(contact_ms, contact_se_ms, sample_interval, given, longest_ms)
+    too_long = given & (contact_ms - 2 * contact_se_ms > longest_ms)
+    if too_long.any():
+        first = int(np.flatnonzero(too_long)[0])
+        notes.append(f"impact {first + 1}: the contact lasts {contact_ms[first]:.3g} ms, longer than this kind of ball "
+                     f"can (at most {longest_ms[first]:.2g} ms at {values['v_in_m_s'][first]:.2g} m/s)"
+                     + reference_hint(quantities, theta, ball["radius_m"])
+                     + "; the contact times are not reported as resolved")
     impacts["n_samples_before"] = counts[:-1]
     impacts["n_samples_after"] = counts[1:]
     impacts["in_fit"], impacts["note"] = impact_notes(values["e"])

@@ -229,12 +229,14 @@ def quantity_index(name, n_impacts):
     return slice(start, start + n_impacts)
 
 
-def contact_resolvable(contact_ms, contact_se_ms, sample_interval_s, contact_height_given):
+def contact_resolvable(contact_ms, contact_se_ms, sample_interval_s, contact_height_given, longest_ms=np.inf):
     """A contact time means something only if the contact height is known independently of it,
-    the sampling resolves it, and it stands well clear of its own uncertainty."""
+    the sampling resolves it, it stands well clear of its own uncertainty, and it is not longer than
+    the ball can have (``longest_ms``, per impact)."""
     if not contact_height_given:
         return np.zeros(contact_ms.size, dtype=bool)
-    return (contact_ms > 2e3 * sample_interval_s) & (contact_ms > 5 * contact_se_ms)
+    plausible = contact_ms - 2 * contact_se_ms <= longest_ms
+    return (contact_ms > 2e3 * sample_interval_s) & (contact_ms > 5 * contact_se_ms) & plausible
 
 
 def rest_time(t, y, contact_height, noise, depth_in_noise, after):
