@@ -95,3 +95,23 @@ def stage_args(directory, source):
                    "--impacts", d / "impacts.csv", "--analysis", d / "analysis.json", "--fit", d / "fit.json",
                    "--html", d / "report.html", "--figure", d / "report.png"],
     }
+
+
+def matched_truth(impacts, true_impacts):
+    """The rows of a simulator's impact table nearest in touchdown time to each analysed impact.
+
+    Parameters
+    ----------
+    impacts : pandas.DataFrame
+        An analysis' impacts (``t_touchdown_s``).
+    true_impacts : pandas.DataFrame
+        The truth's impacts (``t_touchdown_s``, refsim's names).
+
+    Returns
+    -------
+    pandas.DataFrame
+        One truth row per analysed impact, index reset to match ``impacts``.
+    """
+    true_times = true_impacts["t_touchdown_s"].to_numpy()
+    nearest = [int(np.argmin(np.abs(true_times - time))) for time in impacts["t_touchdown_s"]]
+    return true_impacts.iloc[nearest].reset_index(drop=True)

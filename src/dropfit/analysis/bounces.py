@@ -166,7 +166,7 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
                      else (unknown.contact_time_exponent, unknown.contact_time_exponent_se))
     problem = FitProblem(segmentation.time, segmentation.height, g, contact_height_m, segmentation.noise,
                          float(contact_guard_s), float(segmentation.time[segmentation.release]), contact_prior)
-    bounds = initial_bounds(problem, segmentation, source)
+    bounds, cut = initial_bounds(problem, segmentation, source)
     held_k = float(nominal_drag_k_per_m or 0.0)
     longest = (unknown.max_contact_time_s if max_contact_time_s is None else float(max_contact_time_s),
                contact_prior[1][0])
@@ -190,7 +190,7 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
             # a contact height the flights contradict is not a measurement: model it from the flights
             notes.append(floor_note)
             problem.contact_height = None
-            bounds = initial_bounds(problem, segmentation, source)
+            bounds, cut = initial_bounds(problem, segmentation, source)
             continue
         if unresolved == 0:
             raise InputError(f"{source}: the first rebound does not rise clearly above the contact height: no impact "
@@ -207,7 +207,9 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
     extra_parts, drag_note = implausible_drag(fit, problem.subset(keep), held_k)
     if drag_note:
         notes.append(drag_note)
-    if fit.misfit_cut is not None:
+    if fit.misfit_cut is None:  # an earlier cut by the misfit test makes the segmentation's moot
+        notes.extend(cut)
+    else:
         notes.append(f"flight {fit.misfit_cut}: its residuals are far larger than the noise (a bounce too shallow to "
                      f"detect, or not a free flight); the bounce sequence ends before it")
     left_out = np.count_nonzero(~keep)
@@ -263,8 +265,14 @@ class FlightFit:
 
 
 def initial_bounds(problem, segmentation, source):
-    """Flight intervals (s) from the segmentation, up to the first flight sampled too sparsely or
-    hiding an impact; checks that the flights fall with g."""
+    """Flight intervals (s) from the segmentation, up to the first flight sampled too sparsely or not
+    curving like a free flight; checks that the flights fall with g.
+
+    Returns
+    -------
+    (list, list of str)
+        The bounds and a note for where the sequence was cut and why.
+    """
     t, y = problem.t, problem.y
     bounds = flight_bounds(t, y, segmentation.release, segmentation.impacts, problem.noise, problem.contact_height)
     # keep impacts while both neighbouring flights are sampled well enough
@@ -273,11 +281,18 @@ def initial_bounds(problem, segmentation, source):
     if n_flights < 2:
         raise InputError(f"{source}: no bounce with at least {MIN_SAMPLES_PER_FLIGHT} samples in the flights "
                          f"before and after it")
-    bounds = bounds[: check_free_fall(t, y, bounds[:n_flights], problem.g, source)]
-    if len(bounds) < 2:
-        raise InputError(f"{source}: the flight after the first bounce falls with far less than g: it hides a "
-                         f"bounce too shallow to detect, and no impact is left to analyse")
-    return bounds
+    kept = check_free_fall(t, y, bounds[:n_flights], problem.g, source)
+    if kept < 2:
+        raise InputError(f"{source}: the flight after the first bounce does not curve like a free flight (far less "
+                         f"or far more than g): it hides a bounce too shallow to detect, and no impact is left")
+    notes = []
+    if kept < n_flights:
+        notes.append(f"flight {kept} does not curve like a free flight (a bounce too shallow to detect, the ball "
+                     f"rolling, a hand): the bounce sequence ends before it")
+    elif n_flights < len(bounds):
+        notes.append(f"flight {n_flights} has fewer than {MIN_SAMPLES_PER_FLIGHT} samples: the bounce sequence ends "
+                     f"before it")
+    return bounds[:kept], notes
 
 
 def fit_with_drag_choice(problem, bounds, drag, held_k, held_k_relative_se, source):
@@ -310,7 +325,10 @@ def fit_with_drag_choice(problem, bounds, drag, held_k, held_k_relative_se, sour
         if bics[False] <= bics[True]:
             if held_k > 0:
                 held_k, held_k_se = combine_with_prior(fit.result, held_k, held_k_se)
-            fit = refine(problem, fit.bounds, False, rival[1].x, held_k) or fit
+            held = refine(problem, fit.bounds, False, rival[1].x, held_k)
+            if held is not None:  # the sequence it refits was cut by the first fit: keep saying so
+                held.misfit_cut = held.misfit_cut if held.misfit_cut is not None else fit.misfit_cut
+                fit = held
     return fit, bics, held_k_se
 
 
