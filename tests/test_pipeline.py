@@ -307,3 +307,9 @@ def test_run_bad_input_one_line_and_nothing_written(tmp_path, capsys):
     message = capsys.readouterr().err.strip().removeprefix("dropfit: error: ")
     assert json.loads((out / "fit.json").read_text(encoding="utf-8")) == {"status": "failed", "error": message}
     assert sorted(path.name for path in out.iterdir()) == sorted(RECORDING_FILES)
+
+
+def test_an_unknown_ball_type_of_an_old_trajectory_names_the_file():
+    trajectory = make_trajectory(np.arange(10.0), np.ones(10), "old.csv", "test", {"ball_type": "golf"})
+    with pytest.raises(InputError, match=r"^old\.csv: ball type 'golf' is not one dropfit knows"):
+        pipeline.analysis_options(trajectory.attrs)

@@ -18,14 +18,14 @@ from __future__ import annotations
 
 import dataclasses
 import inspect
-from pathlib import Path
+import os
 
 import numpy as np
 
 from . import __version__, video_limits
 from .analysis import analyse_bounces
 from .balls import ball_kind
-from .errors import InputError
+from .errors import InputError, shown_path
 from .files import sha256_of
 from .fitrecord import analysis_summary, fit_summary, plain
 from .heightlog import trajectory_from_log
@@ -134,7 +134,10 @@ def analysis_options(attrs, settings=None, sample_interval_s=0.0):
     radius, mass = attrs.get("ball_radius_m"), attrs.get("ball_mass_kg")
     floor = attrs.get("floor_m")
     video = "video" in attrs
-    kind = ball_kind(attrs.get("ball_type"))
+    try:
+        kind = ball_kind(attrs.get("ball_type"))
+    except InputError as error:  # a trajectory measured before ball types were checked
+        raise InputError(f"{shown_path(attrs.get('source', 'trajectory'))}: {error}") from None
     return {
         "gravity_m_s2": gravity.value_m_s2,
         "drag": settings.drag,
@@ -245,7 +248,7 @@ def process_recording(recording, ball=None, settings=None, *, sample_id=None):
     settings = settings or Settings()
     if isinstance(recording, xr.Dataset):
         trajectory = _given_trajectory(recording, ball, settings, sample_id)
-    elif isinstance(recording, (str, Path)):
+    elif isinstance(recording, (str, os.PathLike)):
         trajectory = measure_recording(recording, ball, settings, sample_id=sample_id)
     else:
         raise TypeError(f"a recording is a path or a trajectory (xarray.Dataset), not {type(recording).__name__}")
