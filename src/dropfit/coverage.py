@@ -170,14 +170,21 @@ VIDEO_SCENARIO = {"drop_height_m": 1.0, "radius_m": 0.0335, "mass_kg": 0.057, "e
                   "image_row_of_floor_px": 192.0, "noise_sigma": 2.0, "quality": 90}
 
 
-def video_trial(seed, directory, scenario=None):
+def video_trial(seed, directory, scenario=None, floor_known=True):
     """Render, track and analyse one seeded synthetic clip (written into ``directory``, then removed).
 
     The clip goes through :func:`dropfit.pipeline.analyse_recording` as the workflow runs a video: the
-    scale is given (as a ruler calibration would give it), the floor is found in the image, and e and
-    the rebound heights are tested; contact times are not resolvable at 120 fps. The ball's mass is
-    not given (the rendered ball flies without drag). The e0 of the ball is drawn per seed from
-    0.70–0.80 so that the clips differ in more than their pixel noise.
+    scale is given (as a ruler calibration would give it) and so is the floor (``floor_m``, as a rig
+    that measured it would give it; with ``floor_known`` false it is found in the image, the
+    workflow's default for a video without ``floor_m``), and e and the rebound heights are tested;
+    contact times are not resolvable at 120 fps. The ball's mass is not given (the rendered ball
+    flies without drag). The e0 of the ball is drawn per seed from 0.70–0.80 so that the clips differ
+    in more than their pixel noise.
+
+    Raises
+    ------
+    dropfit.errors.InputError
+        When dropfit refuses the clip (as the workflow would).
 
     Returns
     -------
@@ -200,8 +207,9 @@ def video_trial(seed, directory, scenario=None):
     path = Path(directory) / f"coverage_{seed}.avi"
     frames = render_video(truth, camera, scene, spec["duration_s"], seed, path)
     try:
+        floor_m = -spec["image_row_of_floor_px"] / spec["px_per_m"] if floor_known else None  # heights: −row × scale
         analysis = analyse_recording(frames.attrs["video_path"], ball_radius_m=spec["radius_m"],
-                                     scale_m_per_px=1.0 / spec["px_per_m"]).analysis
+                                     scale_m_per_px=1.0 / spec["px_per_m"], floor_m=floor_m).analysis
     finally:
         Path(frames.attrs["video_path"]).unlink()
     impacts, true_impacts = analysis.impacts, truth.impacts.iloc[: len(analysis.impacts)]
