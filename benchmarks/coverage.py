@@ -7,7 +7,8 @@ drag model and e(v) law was chosen. It writes the table
 to ``benchmarks/coverage.csv``.
 
 With ``--videos N`` it instead renders, tracks and analyses N small seeded clips
-(:func:`dropfit.coverage.video_trial`) and writes ``benchmarks/video_coverage.csv``.
+(:func:`dropfit.coverage.video_trial`, scale and floor given), lists those dropfit refuses, and writes
+``benchmarks/video_coverage.csv``.
 
     python benchmarks/coverage.py [N]
     python benchmarks/coverage.py --videos [N]
@@ -21,13 +22,21 @@ from pathlib import Path
 import pandas as pd
 
 from dropfit.coverage import SCENARIOS, coverage_table, log_trial, video_trial
+from dropfit.errors import InputError
 
 
 def videos(trials):
     start = time.perf_counter()
+    pairs, refused = [], []
     with tempfile.TemporaryDirectory() as directory:
-        table = coverage_table(pd.concat([video_trial(seed, directory) for seed in range(trials)]))
+        for seed in range(trials):
+            try:
+                pairs.append(video_trial(seed, directory))
+            except InputError as error:  # refused, as the workflow would refuse it
+                refused.append(f"seed {seed}: {error}")
+    table = coverage_table(pd.concat(pairs))
     print(f"{trials} seeded clips; {(time.perf_counter() - start) / trials:.2f} s per clip (render, track, analyse)")
+    print(f"{len(refused)} refused" + "".join(f"\n  {line}" for line in refused))
     print(table.to_string(index=False, float_format=lambda x: f"{x:.3f}"))
     table.to_csv(Path(__file__).with_name("video_coverage.csv"), index=False, float_format="%.4f")
 

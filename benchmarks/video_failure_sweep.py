@@ -76,7 +76,7 @@ import matplotlib.ticker  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from dropfit import stages, video_limits  # noqa: E402
+from dropfit import Ball, stages, video_limits  # noqa: E402
 from dropfit.contact import LinearContact  # noqa: E402
 from dropfit.errors import InputError  # noqa: E402
 from dropfit.synth import simulate_drop  # noqa: E402
@@ -172,7 +172,7 @@ def _analyse(path, radius_m, directory):
     """(impacts table or None, refusal message or None) through the workflow's measure and analyse."""
     d = Path(directory)
     try:
-        stages.measure(path, d / "trajectory.nc", ball_radius_m=radius_m)
+        stages.measure(path, d / "trajectory.nc", Ball(radius_m=radius_m))
         stages.analyse(d / "trajectory.nc", d / "impacts.csv", d / "flights.csv", d / "analysis.json")
     except InputError as error:
         return None, str(error).replace(str(path), "<clip>")

@@ -115,3 +115,38 @@ def matched_truth(impacts, true_impacts):
     true_times = true_impacts["t_touchdown_s"].to_numpy()
     nearest = [int(np.argmin(np.abs(true_times - time))) for time in impacts["t_touchdown_s"]]
     return true_impacts.iloc[nearest].reset_index(drop=True)
+
+
+#: The ball of :func:`write_drop_log`: a rubber ball (radius m, mass kg) with the drag of a smooth sphere.
+DROP_BALL = {"ball_radius_m": 0.025, "ball_mass_kg": 0.05, "ball_type": "rubber"}
+#: The files ``dropfit run`` and the workflow write per recording.
+RECORDING_FILES = ("trajectory.nc", "impacts.csv", "flights.csv", "analysis.json", "fit.json", "report.html",
+                   "report.png")
+#: Fields of fit.json that name the recording rather than measure it (results are compared without them).
+PROVENANCE_FIELDS = ("source", "sample_id")
+
+
+#: The floor's height in m in the frame of :func:`write_drop_log` (the sensor's zero is below it).
+DROP_FLOOR_M = 0.1
+
+
+def write_drop_log(path, seed=5, unit="mm"):
+    """A 3 s, 200 Hz, 1 mm-noise log of the :data:`DROP_BALL` from 1 m (e = 0.8, C_d = 0.5), seeded; the
+    floor at :data:`DROP_FLOOR_M`. Returns ``path``."""
+    truth = simulate_drop(1.0, DROP_BALL["ball_radius_m"], {"kind": "constant", "e0": 0.8},
+                          mass_kg=DROP_BALL["ball_mass_kg"], drag_coefficient=0.5, release_time_s=0.2)
+    frame = sample_height_log(truth, np.random.default_rng(seed), 200.0, duration_s=3.0, noise_m=0.001,
+                              offset_m=DROP_FLOOR_M, dropout_fraction=0.01, unit=unit)
+    return write_log(path, frame, f"# drop log for the tests, seed {seed}")
+
+
+def option_arguments(options):
+    """``--flag value`` strings of option name → value (``dropfit.settings.OPTIONS`` names)."""
+    from dropfit.settings import OPTIONS
+
+    return [text for name, value in options.items() for text in (OPTIONS[name].flag, str(value))]
+
+
+def fit_numbers(fit):
+    """A fit result without its provenance fields (:data:`PROVENANCE_FIELDS`)."""
+    return {key: value for key, value in fit.items() if key not in PROVENANCE_FIELDS}

@@ -787,7 +787,7 @@ def test_internal_error_names_the_input_and_keeps_the_traceback_in_the_log(good,
     def broken(*args, **kwargs):
         raise ValueError("f(a) and f(b) must have different signs")
 
-    monkeypatch.setattr(stages, "fit_result", broken)
+    monkeypatch.setattr(stages, "fit_summary", broken)
     d = good.directory
     args = ["fit", "--analysis", str(d / "analysis.json"), "--impacts", str(d / "impacts.csv")]
     assert main([*args, "--out", str(tmp_path / "a" / "fit.json")]) == 1

@@ -12,6 +12,7 @@ import pandas as pd
 import pytest
 
 from dropfit.coverage import SCENARIOS, coverage_table, log_trial, video_trial
+from dropfit.errors import InputError
 
 COVERAGE_MIN, COVERAGE_MAX = 0.90, 0.98  # fraction of 95 % intervals that cover the truth
 # 1200 logs in all. The e(v) law's parameters cover 96.5–97 % (over 800 logs; a law that misfits is
@@ -20,7 +21,11 @@ COVERAGE_MIN, COVERAGE_MAX = 0.90, 0.98  # fraction of 95 % intervals that cover
 LOGS_PER_SCENARIO = 200
 VIDEOS = 200  # small clips, about 0.2 s each on a quiet core (rendering dominates)
 MIN_PAIRS = 70  # a coverage from fewer pairs is too noisy to test against the 90–98 % band
-VIDEO_BIAS_MAX = 0.6  # largest |mean (value − truth)/se| of the video quantities (200 clips: 0.24, 0.34)
+VIDEO_BIAS_MAX = 0.6  # largest |mean (value − truth)/se| of the video quantities (200 clips: 0.17, 0.02)
+# clips of the 200 dropfit may refuse: seed 105, whose release is found 0.4 s late once the contact height
+# is given (5 clean frames left before impact 1), an open problem of the analysis
+VIDEOS_REFUSED_MAX = 1
+VIDEOS_FLOOR_FOUND = 40  # clips with the floor found in the image (their intervals cover none: 40 are plenty)
 CHOICE_MIN = 0.95  # fraction of logs in which the generating (or simpler) model must be chosen
 
 
@@ -73,16 +78,38 @@ def test_the_generating_models_are_chosen(log_trials):
         assert (choices.get_group(name)["itf_method"] == "predicted").all()
 
 
+def video_trials(directory, seeds, floor_known=True):
+    """The coverage table of the clips dropfit analyses, and (seed, message) of those it refuses."""
+    pairs, refused = [], []
+    for seed in seeds:
+        try:
+            pairs.append(video_trial(seed, directory, floor_known=floor_known))
+        except InputError as error:
+            refused.append((seed, str(error)))
+    return coverage_table(pd.concat(pairs)), refused
+
+
 @pytest.fixture(scope="module")
 def video_coverage(tmp_path_factory):
-    directory = tmp_path_factory.mktemp("clips")
-    return coverage_table(pd.concat([video_trial(seed, directory) for seed in range(VIDEOS)]))
+    return video_trials(tmp_path_factory.mktemp("clips"), range(VIDEOS))
 
 
 @pytest.mark.slow
 def test_video_intervals_cover_the_truth_90_to_98_percent(video_coverage):
-    print("\n[coverage] videos:\n" + video_coverage.to_string())
-    assert set(video_coverage["quantity"]) == {"e", "h_after_m"}
-    assert (video_coverage["n"] >= MIN_PAIRS).all()
-    assert video_coverage["coverage"].between(COVERAGE_MIN, COVERAGE_MAX).all(), video_coverage.to_string()
-    assert (video_coverage["mean_z"].abs() < VIDEO_BIAS_MAX).all(), video_coverage.to_string()
+    table, refused = video_coverage
+    print(f"\n[coverage] videos ({len(refused)} refused: {refused}):\n" + table.to_string())
+    assert set(table["quantity"]) == {"e", "h_after_m"}
+    assert (table["n"] >= MIN_PAIRS).all()
+    assert table["coverage"].between(COVERAGE_MIN, COVERAGE_MAX).all(), table.to_string()
+    assert (table["mean_z"].abs() < VIDEO_BIAS_MAX).all(), table.to_string()
+    assert len(refused) <= VIDEOS_REFUSED_MAX, refused
+
+
+@pytest.mark.slow
+@pytest.mark.xfail(strict=True, reason="on these 160 px/m clips the floor edge found in the image reads about "
+                   "0.13 px low, beyond its 0.05 px standard error (dropfit.videolog.FLOOR_ROW_SE_PX): the "
+                   "intervals of e and the rebound heights cover the truth in none of 398 impacts")
+def test_video_intervals_cover_the_truth_with_the_floor_found_in_the_image(tmp_path):
+    table, _ = video_trials(tmp_path, range(VIDEOS_FLOOR_FOUND), floor_known=False)
+    print("\n[coverage] videos, floor found in the image:\n" + table.to_string())
+    assert table["coverage"].between(COVERAGE_MIN, COVERAGE_MAX).all(), table.to_string()

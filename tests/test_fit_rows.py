@@ -8,7 +8,8 @@ import pytest
 
 from dropfit.analysis import analyse_bounces
 from dropfit.contact import LinearContact
-from dropfit.stages import analysis_summary, fit_result, fit_rows
+from dropfit.fitrecord import analysis_summary, fit_rows, fit_summary
+from dropfit.settings import Settings
 from dropfit.synth import sample_height_log, simulate_drop
 
 RADIUS_M, MASS_KG = 0.0335, 0.057
@@ -48,8 +49,9 @@ def test_an_impact_left_out_enters_no_fit(contact_recording):
     marked["note"] = ""
     marked.loc[LEFT_OUT, "note"] = "e > 1: a hop the flights do not describe"
     marked.loc[LEFT_OUT, ["e", "t_contact_ms"]] = [1.3, 40.0]  # nonsense that must not reach any fit
-    with_mark = fit_result(summary, marked, itf_drop_height_m=2.0)  # a 1 m drop: the 2 m rebound is predicted
-    without = fit_result(*without_impact(summary, impacts, LEFT_OUT), itf_drop_height_m=2.0)
+    settings = Settings(itf_drop_height_m=2.0)  # a 1 m drop: the 2 m rebound is predicted
+    with_mark = fit_summary(summary, marked, settings)
+    without = fit_summary(*without_impact(summary, impacts, LEFT_OUT), settings)
 
     for name, model in without["restitution_models"].items():
         for parameter, value in model["parameters"].items():

@@ -8,6 +8,8 @@ import pandas as pd
 import pytest
 
 from dropfit import stages
+from dropfit.fitrecord import fit_summary
+from dropfit.settings import Ball, Settings
 from dropfit.errors import InputError
 from dropfit.report import batch_report_html, batch_rows, format_pm
 
@@ -35,8 +37,8 @@ def run(tmp_path_factory):
                                             "flights.csv", "analysis.json", "fit.json", "report.html", "figure.png"]}
     (root / "sc.yaml").write_text(SCENARIOS, encoding="utf-8")
     stages.synth(root / "sc.yaml", "tennis_short", paths["log.csv"], paths["truth.json"])
-    stages.measure(paths["log.csv"], paths["trajectory.nc"], sample_id="tennis_short", ball_radius_m=0.0335,
-                   ball_mass_kg=0.057, ball_type="tennis")
+    stages.measure(paths["log.csv"], paths["trajectory.nc"], Ball(radius_m=0.0335, mass_kg=0.057, type="tennis"),
+                   sample_id="tennis_short")
     stages.analyse(paths["trajectory.nc"], paths["impacts.csv"], paths["flights.csv"], paths["analysis.json"])
     stages.fit(paths["analysis.json"], paths["impacts.csv"], paths["fit.json"])
     stages.report(paths["trajectory.nc"], paths["flights.csv"], paths["impacts.csv"], paths["analysis.json"],
@@ -147,7 +149,7 @@ def _refit(run, e_of_speed, seed):
     noise = np.linalg.cholesky(np.asarray(summary["e_covariance"])) @ np.random.default_rng(seed).standard_normal(
         len(impacts))
     impacts["e"] = e_of_speed(impacts["v_in_m_s"].to_numpy()) + noise
-    return impacts, stages.fit_result(summary, impacts, ball_type="tennis", itf_drop_height_m=2.0)
+    return impacts, fit_summary(summary, impacts, Settings(itf_drop_height_m=2.0), ball_type="tennis")
 
 
 # Per-impact e against speed (m/s) that make the fit choose each kind of headline: a constant, a law of

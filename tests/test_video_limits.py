@@ -4,7 +4,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from dropfit import stages, video_limits
+from dropfit import Ball, stages, video_limits
 from dropfit.analysis import analyse_bounces
 from dropfit.contact import LinearContact
 from dropfit.errors import InputError
@@ -157,7 +157,7 @@ def render(tmp_path, truth, fps, seed=0):
 
 
 def measure_and_analyse(tmp_path, video):
-    stages.measure(video, tmp_path / "t.nc", ball_radius_m=BALL_RADIUS_M)
+    stages.measure(video, tmp_path / "t.nc", Ball(radius_m=BALL_RADIUS_M))
     stages.analyse(tmp_path / "t.nc", tmp_path / "impacts.csv", tmp_path / "flights.csv", tmp_path / "analysis.json")
     return pd.read_csv(tmp_path / "impacts.csv")
 

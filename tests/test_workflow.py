@@ -1,5 +1,6 @@
 """The Snakemake workflow, run in a copy of the repository: lint, dry run, and (slow) a whole batch with
-two bad recordings, checked against the synthetic ground truth."""
+three bad recordings, checked against the synthetic ground truth and against ``dropfit run`` and
+``dropfit.analyse_recording`` on single recordings."""
 
 import json
 import re
@@ -10,8 +11,12 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+import yaml
 
-from helpers import write_no_bounce_log
+from dropfit import analyse_recording
+from dropfit.settings import settings_from_config, stage_arguments
+
+from helpers import RECORDING_FILES, dropfit, write_no_bounce_log
 
 REPO = Path(__file__).resolve().parents[1]
 #: Time limit of a whole workflow run (about 25 s on a laptop).
@@ -31,6 +36,10 @@ DEFAULT_FAILED = "tennis_lot_A_ball3_drop4_truncated"
 #: The ball lot of the default data: ball → ITF verdict it was designed to get (data/synthetic/scenarios.yaml).
 LOT = "tennis_lot_A"
 LOT_VERDICTS = {"A1": "pass", "A2": "pass", "A3": "pass", "A4": "fail", "A5": "indeterminate"}
+#: Samples that ``dropfit run`` repeats outside the workflow: a px log calibrated from gravity (drag held
+#: at the nominal prior), a log with its floor known (contact times, k, c) and a video (floor found in the
+#: image, scale from the diameter, frames guarded around the contacts).
+RUN_SAMPLES = ["steel_ball", "tennis_contact_2khz", "contact_2000fps_closeup"]
 #: A ball's mean rebound must match the mean true rebound of its drops to this (about 4 measurement se).
 REBOUND_TOL_M = 0.001  # m
 
@@ -57,8 +66,8 @@ def sample_sheet(root):
 
 
 def good_samples(root):
-    """Sample ids of the repository's good recordings (all but :data:`DEFAULT_FAILED`)."""
-    return [sample for sample in sample_sheet(root)["sample_id"] if sample != DEFAULT_FAILED]
+    """Sample ids of the good recordings (all but :data:`DEFAULT_FAILED` and :data:`BAD_SAMPLES`)."""
+    return [sample for sample in sample_sheet(root)["sample_id"] if sample != DEFAULT_FAILED and sample not in BAD_SAMPLES]
 
 
 def test_lint_reports_only_conda_and_container_hints(tmp_path):
@@ -91,14 +100,10 @@ def test_dry_run_plans_every_sample(tmp_path):
     assert int(counts["qc"]) == sheet["batch"].nunique()
 
 
-@pytest.mark.slow
-def test_batch_with_bad_recordings(tmp_path):
-    """A full run with three bad recordings: exit 0, good samples fitted and reported, bad ones in the summary.
-
-    The good samples' e must match the ground truth of the constant-e scenarios within 0.002.
-    """
-    root = copy_workflow(tmp_path)
-    good = good_samples(root)
+@pytest.fixture(scope="module")
+def batch_run(tmp_path_factory):
+    """The default workflow with three bad recordings added, run in a copy of the repository; its root."""
+    root = copy_workflow(tmp_path_factory.mktemp("workflow"))
     bad_dir = root / "data" / "bad"
     bad_dir.mkdir()
     (root / BAD_SAMPLES["bad_empty"]).write_text("", encoding="utf-8")
@@ -109,6 +114,17 @@ def test_batch_with_bad_recordings(tmp_path):
 
     result = snakemake("--profile", "workflow/profiles/default", "--cores", "2", cwd=root, timeout=RUN_TIMEOUT_S)
     assert result.returncode == 0, result.stderr[-3000:]
+    return root
+
+
+@pytest.mark.slow
+def test_batch_with_bad_recordings(batch_run):
+    """A full run with three bad recordings: exit 0, good samples fitted and reported, bad ones in the summary.
+
+    The good samples' e must match the ground truth of the constant-e scenarios within 0.002.
+    """
+    root = batch_run
+    good = good_samples(root)
 
     for sample in good:
         assert (root / "results" / sample / "report.html").is_file()
@@ -163,3 +179,31 @@ def check_lot_qc(root):
     html = (root / "results" / "batch" / f"qc_{LOT}.html").read_text(encoding="utf-8")
     assert f"<b>{DEFAULT_FAILED}</b> (ball A3)" in html
     assert (root / "results" / "batch" / f"qc_{LOT}.png").read_bytes().startswith(b"\x89PNG")
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("sample", RUN_SAMPLES)
+def test_run_and_a_notebook_give_the_workflows_numbers(batch_run, sample, monkeypatch):
+    """``dropfit run`` on one recording, with the options the workflow gives that sample, writes the
+    workflow's impacts and flights byte for byte and its fit result number for number; so does
+    ``dropfit.analyse_recording`` with the same config and sample row, in memory."""
+    root = batch_run
+    config = yaml.safe_load((root / "config" / "config.yaml").read_text(encoding="utf-8"))
+    row = sample_sheet(root).set_index("sample_id", drop=False).loc[sample]
+    out = root / "run" / sample
+    result = dropfit("run", row["path"], "--out", out, "--sample-id", sample, *stage_arguments("run", config, row),
+                     cwd=root)
+    assert result.returncode == 0, result.stderr
+    assert result.stdout.startswith(f"{sample}: e = ") and len(result.stdout.splitlines()) == 1
+    workflow = root / "results" / sample
+    for name in ("impacts.csv", "flights.csv"):
+        assert (out / name).read_bytes() == (workflow / name).read_bytes(), name
+    run_fit = json.loads((out / "fit.json").read_text(encoding="utf-8"))
+    assert run_fit == json.loads((workflow / "fit.json").read_text(encoding="utf-8"))
+    assert sorted(path.name for path in out.iterdir()) == sorted(RECORDING_FILES)
+
+    ball, settings = settings_from_config(config, row)
+    monkeypatch.chdir(root)  # the recording's path as the workflow gives it (messages quote it)
+    notebook = analyse_recording(row["path"], ball_radius_m=ball.radius_m, ball_mass_kg=ball.mass_kg,
+                                 ball_type=ball.type, sample_id=sample, settings=settings)
+    assert notebook.to_dict() == run_fit

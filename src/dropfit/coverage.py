@@ -1,8 +1,8 @@
 """Do the reported 95 % intervals cover the truth 95 % of the time? Seeded synthetic trials.
 
 Each trial runs one scenario forwards (:mod:`dropfit.synth`) with its own seed, analyses the log and
-fits it exactly as the workflow does (:func:`dropfit.analysis.analyse_bounces`, then
-:func:`dropfit.stages.fit_result`), and pairs every reported value and standard error with the
+fits it exactly as the workflow does (:func:`dropfit.pipeline.analyse_recording`, with the workflow's
+defaults), and pairs every reported value and standard error with the
 generator's truth: per impact e, impact speeds, rebound heights and contact times; per recording
 the drop height, constant e, the e(v) law, the drag parameter, k and c, and the ITF rebound.
 """
@@ -14,16 +14,19 @@ import copy
 import numpy as np
 import pandas as pd
 
-from .analysis import NOMINAL_DRAG_RELATIVE_SE, analyse_bounces, se_column_name
-from .physics import SPHERE_DRAG_COEFFICIENT
+from .analysis import se_column_name
+from .heightlog import make_trajectory
+from .balls import ball_kind
+from .pipeline import analyse_recording
 from .restitution import ITF_DROP_HEIGHT_M, Z95
-from .stages import analysis_summary, fit_result, nominal_drag
 from .synth import simulate_drop, synthesize
 
 #: Short scenarios (a few bounces each) that between them exercise every reported quantity; the
 #: 254 cm rebound of the tennis balls is predicted from a constant e and from a linear e(v).
 #: ``nominal_drag``: the ball's size and mass are given to the analysis, and the truth's C_d is drawn
-#: from the prior the analysis assumes, C_d = 0.5 (1 ± 25 %); otherwise the analysis knows no drag.
+#: from the prior the analysis assumes (the ball kind's C_d and its se); otherwise the analysis is not given the
+#: mass, so it knows no drag (the contact scenario needs the mass for k and c: its analysis holds the
+#: nominal drag, which its precise 2 kHz flights pull to the truth's 0).
 SCENARIOS = {
     "tennis_drag_150cm": {
         "drop_height_m": 1.5, "duration_s": 3.0, "drag_coefficient": "prior", "nominal_drag": True,
@@ -73,23 +76,23 @@ def log_trial(scenario, seed):
     pairs : pandas.DataFrame
         One row per reported quantity: ``quantity``, ``value``, ``se`` and ``truth`` (SI units).
     fitted : dict
-        The fit result, as :func:`dropfit.stages.fit_result` (chosen models and why).
+        The fit result, as ``fit.json`` holds it (:func:`dropfit.pipeline.fit_analysis`: chosen models and why).
     """
     rng = np.random.default_rng(seed)
     scenario = copy.deepcopy(scenario)
-    if scenario["drag_coefficient"] == "prior":
-        scenario["drag_coefficient"] = SPHERE_DRAG_COEFFICIENT * (1 + NOMINAL_DRAG_RELATIVE_SE * rng.standard_normal())
+    if scenario["drag_coefficient"] == "prior":  # the truth drawn from the prior the analysis assumes
+        kind = ball_kind(scenario["ball"]["type"])
+        scenario["drag_coefficient"] = kind.drag_coefficient + kind.drag_coefficient_se * rng.standard_normal()
     log, truth = synthesize(scenario, int(rng.integers(2**31)))
     ball = scenario["ball"]
-    offset = scenario["sensor"].get("offset_m", 0.0)
-    attrs = {"ball_radius_m": ball["radius_m"], "ball_type": ball["type"],
-             "ball_mass_kg": ball["mass_kg"] if scenario["nominal_drag"] or "contact" in scenario else None}
-    analysis = analyse_bounces(log["time_s"], log["y_m"],
-                               contact_height_m=ball["radius_m"] + offset if scenario.get("floor_known") else None,
-                               nominal_drag_k_per_m=nominal_drag(ball["radius_m"], ball["mass_kg"])
-                               if scenario["nominal_drag"] else 0.0)
-    fitted = fit_result(analysis_summary(analysis, attrs), analysis.impacts)
-    return pd.DataFrame(_pairs(scenario, truth, analysis, fitted), columns=["quantity", "value", "se", "truth"]), fitted
+    trajectory = make_trajectory(log["time_s"].to_numpy(), log["y_m"].to_numpy(), f"coverage log (seed {seed})",
+                                 "synthetic log in m")
+    result = analyse_recording(
+        trajectory, ball_radius_m=ball["radius_m"], ball_type=ball["type"],
+        ball_mass_kg=ball["mass_kg"] if scenario["nominal_drag"] or "contact" in scenario else None,
+        floor_m=scenario["sensor"].get("offset_m", 0.0) if scenario.get("floor_known") else None)
+    return (pd.DataFrame(_pairs(scenario, truth, result.analysis, result.fit), columns=["quantity", "value", "se", "truth"]),
+            result.fit)
 
 
 def _pairs(scenario, truth, analysis, fitted):
@@ -168,12 +171,21 @@ VIDEO_SCENARIO = {"drop_height_m": 1.0, "radius_m": 0.0335, "mass_kg": 0.057, "e
                   "image_row_of_floor_px": 192.0, "noise_sigma": 2.0, "quality": 90}
 
 
-def video_trial(seed, directory, scenario=None):
+def video_trial(seed, directory, scenario=None, floor_known=True):
     """Render, track and analyse one seeded synthetic clip (written into ``directory``, then removed).
 
-    The scale is given (as a ruler calibration would give it) and the floor is not, so e and the
-    rebound heights are tested; contact times are not resolvable at 120 fps. The e0 of the ball is
-    drawn per seed from 0.70–0.80 so that the clips differ in more than their pixel noise.
+    The clip goes through :func:`dropfit.pipeline.analyse_recording` as the workflow runs a video: the
+    scale is given (as a ruler calibration would give it) and so is the floor (``floor_m``, as a rig
+    that measured it would give it; with ``floor_known`` false it is found in the image, the
+    workflow's default for a video without ``floor_m``), and e and the rebound heights are tested;
+    contact times are not resolvable at 120 fps. The ball's mass is not given (the rendered ball
+    flies without drag). The e0 of the ball is drawn per seed from 0.70–0.80 so that the clips differ
+    in more than their pixel noise.
+
+    Raises
+    ------
+    dropfit.errors.InputError
+        When dropfit refuses the clip (as the workflow would).
 
     Returns
     -------
@@ -183,8 +195,6 @@ def video_trial(seed, directory, scenario=None):
     from pathlib import Path
 
     from .video_synth import Camera, Scene, render_video
-    from .tracking import TRACKED_CENTRE_CORRELATION
-    from .videolog import trajectory_from_video
 
     spec = dict(VIDEO_SCENARIO, **(scenario or {}))
     rng = np.random.default_rng(seed)
@@ -198,12 +208,11 @@ def video_trial(seed, directory, scenario=None):
     path = Path(directory) / f"coverage_{seed}.avi"
     frames = render_video(truth, camera, scene, spec["duration_s"], seed, path)
     try:
-        trajectory = trajectory_from_video(frames.attrs["video_path"], ball_radius_m=spec["radius_m"],
-                                           scale_m_per_px=1.0 / spec["px_per_m"])
+        floor_m = -spec["image_row_of_floor_px"] / spec["px_per_m"] if floor_known else None  # heights: −row × scale
+        analysis = analyse_recording(frames.attrs["video_path"], ball_radius_m=spec["radius_m"],
+                                     scale_m_per_px=1.0 / spec["px_per_m"], floor_m=floor_m).analysis
     finally:
         Path(frames.attrs["video_path"]).unlink()
-    analysis = analyse_bounces(trajectory["time"].values, trajectory["y"].values,
-                               noise_correlation=TRACKED_CENTRE_CORRELATION)
     impacts, true_impacts = analysis.impacts, truth.impacts.iloc[: len(analysis.impacts)]
     if np.any(np.abs(impacts["t_touchdown_s"].to_numpy() - true_impacts["t_s"].to_numpy()) > 0.02):
         raise AssertionError(f"analysed touchdowns do not match the truth: {impacts['t_touchdown_s'].tolist()}")

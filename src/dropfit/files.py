@@ -49,17 +49,25 @@ def write_text(path, text):
 
 def write_json(path, data):
     """Write ``data`` as indented JSON to ``path`` atomically (NaN written as null)."""
-    write_text(path, json.dumps(_nan_to_none(data), indent=2, allow_nan=False) + "\n")
+    write_text(path, json.dumps(json_ready(data), indent=2, allow_nan=False) + "\n")
 
 
-def _nan_to_none(value):
+def json_ready(value):
+    """``value`` with every NaN replaced by None (JSON has no NaN), tuples as lists, nested in dicts and lists."""
     if isinstance(value, float) and value != value:
         return None
     if isinstance(value, dict):
-        return {key: _nan_to_none(item) for key, item in value.items()}
+        return {key: json_ready(item) for key, item in value.items()}
     if isinstance(value, (list, tuple)):
-        return [_nan_to_none(item) for item in value]
+        return [json_ready(item) for item in value]
     return value
+
+
+def write_table(path, table):
+    """Write a pandas table as CSV to ``path`` atomically, every number as the shortest text that reads back
+    to the same float (so a stage that reads the table gets the very numbers the writer had)."""
+    with atomic_output(path) as tmp:
+        table.to_csv(tmp, index=False)
 
 
 def check_input_file(path, what="file"):
@@ -213,8 +221,10 @@ def read_table(path, what="CSV table written by dropfit analyse"):
         if line.count(",") + 1 != width:
             raise InputError(f"{name}: row {number} has {line.count(',') + 1} fields but the header has {width}: the "
                              f"file is damaged; run the stage that writes it again")
+    # pandas ≥ 3 reads floats back exactly by default; older ones need the round-trip parser
+    exact = {} if int(pd.__version__.split(".")[0]) >= 3 else {"float_precision": "round_trip"}
     try:
-        return pd.read_csv(io.StringIO("\n".join(lines)))
+        return pd.read_csv(io.StringIO("\n".join(lines)), **exact)
     except (ValueError, pd.errors.ParserError) as error:
         raise InputError(f"{name}: is not a valid CSV table ({shown(str(error).splitlines()[0])}); "
                          f"run the stage that writes it again") from None

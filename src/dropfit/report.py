@@ -112,7 +112,7 @@ def format_pm(value, se):
     return f"{value:.{digits}f} ± {se:.{digits}f}"
 
 
-def _format_interval(ci, se):
+def format_interval(ci, se):
     """A 95 % interval ``[low, high]`` with as many decimals as :func:`format_pm` gives."""
     if ci is None or any(_missing(bound) for bound in ci):
         return MISSING
@@ -126,7 +126,7 @@ def _estimate(est, unit=""):
         return MISSING
     suffix = f" {unit}" if unit else ""
     return (f"{format_pm(est['value'], est.get('se'))}{suffix} "
-            f"(95 % interval {_format_interval(est.get('ci95'), est.get('se'))}{suffix})")
+            f"(95 % interval {format_interval(est.get('ci95'), est.get('se'))}{suffix})")
 
 
 def _table(headers, rows):
@@ -424,7 +424,7 @@ def _section_result(fit):
     model = restitution["model"]
     e = restitution["e"]
     headline = (f"<strong>{escape(format_pm(e['value'], e['se']))}</strong> "
-                f"(95 % interval {escape(_format_interval(e.get('ci95'), e['se']))})")
+                f"(95 % interval {escape(format_interval(e.get('ci95'), e['se']))})")
     where = f"impact {restitution['reference_impact']} at {restitution['reference_speed_m_s']:.3f} m/s"
     rows = [("Model", f"<strong>{escape(restitution['law'])}</strong>: {escape(restitution['description'])}")]
     if model == "constant":
@@ -822,7 +822,7 @@ def _cm_pm(value_m, se_m):
 
 def _cm_interval(low_m, high_m, se_m):
     """A 95 % interval in m shown in cm, to the precision of its standard error."""
-    return escape(_format_interval([100 * low_m, 100 * high_m], 100 * se_m))
+    return escape(format_interval([100 * low_m, 100 * high_m], 100 * se_m))
 
 
 def _verdict_cell(verdict):

@@ -1,7 +1,8 @@
 # Helpers: load and validate the config, the sample sheet and the synthetic scenarios, and build
-# the per-sample command-line arguments of the dropfit stages. No rules here.
+# the per-sample command-line options of the dropfit stages from them (dropfit.settings maps the
+# config keys and sample-sheet columns onto dropfit's options, whose defaults live in
+# dropfit.settings.Settings). No rules here.
 
-import math
 import os
 import re
 import shlex
@@ -33,6 +34,7 @@ with open(config["scenarios"]) as handle:
 validate(scenarios, schema="../schemas/scenarios.schema.yaml")
 
 
+from dropfit.settings import stage_arguments
 from dropfit.synth import scenario_recordings
 from dropfit.video_synth import default_clips
 
@@ -54,22 +56,6 @@ wildcard_constraints:
     scenario=_alternatives(synthetic_recordings),
     batch=_alternatives(samples["batch"].unique()),
     clip=_alternatives(video_clips),
-
-
-def _has_value(value):
-    """True unless ``value`` is missing (None, NaN or an empty string)."""
-    if value is None:
-        return False
-    if isinstance(value, float) and math.isnan(value):
-        return False
-    return str(value).strip() != ""
-
-
-def _options(pairs):
-    """``--flag value`` string of the (flag, value) pairs whose value is present, shell-quoted."""
-    return " ".join(
-        f"{flag} {shlex.quote(str(value))}" for flag, value in pairs if _has_value(value)
-    )
 
 
 def sample_row(wildcards):
@@ -131,54 +117,31 @@ def measure_input(wildcards):
     return []
 
 
+def _stage_options(stage, wildcards=None):
+    """``--flag value`` options of ``dropfit <stage>`` for the sample (or, without ``wildcards``, for the
+    batch), shell-quoted: the config and the sample-sheet row mapped onto dropfit's options
+    (``dropfit.settings.stage_arguments``). An option left out of both is not passed, so the stage
+    uses dropfit's default (``dropfit.settings.Settings``)."""
+    row = sample_row(wildcards) if wildcards is not None else None
+    return " ".join(shlex.quote(argument) for argument in stage_arguments(stage, config, row))
+
+
 def measure_args(wildcards):
-    """Optional ``dropfit measure`` flags: ball radius (m), mass (kg), type, scale (m/px), ruler tick (m),
-    floor (m), g (m/s²)."""
-    row = sample_row(wildcards)
-    return _options(
-        [
-            ("--ball-radius-m", row.get("ball_radius_m")),
-            ("--ball-mass-kg", row.get("ball_mass_kg")),
-            ("--ball-type", row.get("ball_type")),
-            ("--scale-m-per-px", row.get("scale_m_per_px")),
-            ("--ruler-tick-m", row.get("ruler_tick_m")),
-            ("--floor-m", row.get("floor_m")),
-            ("--gravity-m-s2", config.get("gravity_m_s2")),
-        ]
-    )
+    """``dropfit measure`` options: ball radius (m), mass (kg) and type, scale (m/px), ruler tick (m),
+    floor (m), capture rate (frames/s), and the site: g (m/s²) or latitude (°) and altitude (m)."""
+    return _stage_options("measure", wildcards)
 
 
 def analyse_args(wildcards):
-    """Optional ``dropfit analyse`` flags: drag mode and g (m/s²)."""
-    return _options(
-        [
-            ("--drag", config.get("analysis", {}).get("drag")),
-            ("--gravity-m-s2", config.get("gravity_m_s2")),
-        ]
-    )
-
-
-def _itf_window():
-    """(flag, value) pairs of the ITF drop height and rebound limits (m) from the config."""
-    itf = config.get("itf", {})
-    return [
-        ("--itf-drop-height-m", itf.get("drop_height_m")),
-        ("--itf-rebound-min-m", itf.get("rebound_min_m")),
-        ("--itf-rebound-max-m", itf.get("rebound_max_m")),
-    ]
+    """``dropfit analyse`` options: drag mode and the site: g (m/s²) or latitude (°) and altitude (m)."""
+    return _stage_options("analyse", wildcards)
 
 
 def fit_args(wildcards):
-    """Optional ``dropfit fit`` flags: ball type and the ITF rebound test limits (m)."""
-    row = sample_row(wildcards)
-    itf = config.get("itf", {})
-    return _options(
-        [("--ball-type", row.get("ball_type"))]
-        + _itf_window()
-        + [("--itf-drop-height-tolerance-m", itf.get("drop_height_tolerance_m"))]
-    )
+    """``dropfit fit`` options: ball type and the ITF rebound test limits and tolerance (m)."""
+    return _stage_options("fit", wildcards)
 
 
 def qc_args(wildcards):
-    """Optional ``dropfit qc`` flags: the ITF rebound test limits (m)."""
-    return _options(_itf_window())
+    """``dropfit qc`` options: the ITF rebound test limits (m), from the config."""
+    return _stage_options("qc")

@@ -1,0 +1,278 @@
+"""One recording from its file to its result: the one orchestrator of dropfit.
+
+The command line's stages (``dropfit measure``, ``analyse``, ``fit`` and ``run``), the workflow (which
+runs those stages), the coverage trials and a notebook all go through these functions, with the
+defaults of :class:`dropfit.settings.Settings`, so they give the same numbers:
+
+1. :func:`measure_recording`: height log or video → trajectory (heights in m, up);
+2. :func:`analyse_trajectory`: trajectory → :class:`dropfit.analysis.BounceAnalysis`, with the
+   options :func:`analysis_options` makes from the trajectory's attributes and the settings (the one
+   place that does);
+3. :func:`fit_analysis`: analysis → fit result (the content of ``fit.json``);
+4. :func:`analyse_recording`: all three, → :class:`dropfit.result.RecordingResult`.
+
+Nothing here reads or writes files other than the recording itself (:mod:`dropfit.stages` does).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+
+import numpy as np
+
+from . import __version__, video_limits
+from .analysis import analyse_bounces
+from .balls import ball_kind
+from .errors import InputError, shown_path
+from .files import sha256_of
+from .fitrecord import analysis_summary, fit_summary, plain
+from .heightlog import nominal_drag_of, trajectory_from_log
+from .result import RecordingResult
+from .settings import Ball, Settings, split_options
+from .tracking import TRACKED_CENTRE_CORRELATION
+from .videolog import is_video, trajectory_from_video
+
+#: Settings that apply to measuring a recording, not to an already measured trajectory.
+MEASURE_ONLY_SETTINGS = ("scale_m_per_px", "ruler_tick_m", "capture_fps")
+
+
+def measure_recording(path, ball=None, settings=None, *, sample_id=None):
+    """Height log or video → trajectory (heights in m, up; dropouts flagged), without writing a file.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        A height log (CSV) or a video (:data:`dropfit.videolog.VIDEO_SUFFIXES`).
+    ball : dropfit.settings.Ball, optional
+        The ball (radius in m, mass in kg, kind); default: nothing known.
+    settings : dropfit.settings.Settings, optional
+        The scale (m/px), ruler tick (m), floor (m), capture rate (frames/s) and the site's g.
+    sample_id : str, optional
+        Name of the recording, kept in the attributes.
+
+    Returns
+    -------
+    xarray.Dataset
+        As :func:`dropfit.heightlog.make_trajectory` (and, for a video, as
+        :func:`dropfit.videolog.trajectory_from_video`); the attributes hold the ball, the floor,
+        the g used to calibrate (``gravity_m_s2``, ``gravity_se_m_s2``, ``gravity_source``), the
+        dropfit version and the file's SHA-256.
+
+    Raises
+    ------
+    dropfit.errors.InputError
+        For a recording that cannot be measured (one line naming the file).
+    """
+    ball = ball or Ball()
+    settings = settings or Settings()
+    gravity = settings.site_gravity()
+    attrs = {"sample_id": sample_id, "ball_radius_m": ball.radius_m, "ball_mass_kg": ball.mass_kg,
+             "ball_type": ball.type, "floor_m": settings.floor_m, "dropfit_version": __version__,
+             "gravity_m_s2": gravity.value_m_s2, "gravity_se_m_s2": gravity.se_m_s2, "gravity_source": gravity.source}
+    scale = settings.scale_m_per_px
+    if is_video(path):
+        trajectory = trajectory_from_video(path, ball.radius_m, scale and abs(scale), settings.capture_fps,
+                                           gravity.value_m_s2, attrs, settings.ruler_tick_m)
+    else:
+        trajectory = trajectory_from_log(path, scale_m_per_px=scale, gravity_m_s2=gravity.value_m_s2, attrs=attrs,
+                                         height_reference=settings.height_reference)
+    trajectory.attrs["source_sha256"] = sha256_of(path)  # after the read: it has checked the file exists
+    return trajectory
+
+
+def gravity_scaled(attrs):
+    """True when the trajectory's length scale came from gravity (a px log calibrated by the flights'
+    curvature, or a video whose chosen scale is ``gravity``): its heights scale with the g assumed."""
+    return attrs.get("scale_source") == "gravity" or str(attrs.get("calibration", "")).startswith("scale from gravity")
+
+
+def analysis_options(attrs, settings=None, sample_interval_s=0.0):
+    """The keyword arguments of :func:`dropfit.analysis.analyse_bounces` for a trajectory: the one place
+    that turns a trajectory's attributes and the settings into them.
+
+    Parameters
+    ----------
+    attrs : mapping
+        The trajectory's attributes (ball radius in m and mass in kg, floor in m and its standard
+        error, the scale's relative standard error, ``video``, ``source`` …).
+    settings : dropfit.settings.Settings, optional
+        Drag mode and the site's g.
+    sample_interval_s : float
+        The median time between samples in s (a video's frame interval).
+
+    Returns
+    -------
+    dict
+        ``gravity_m_s2`` and ``gravity_se_m_s2`` (the site's g, m/s²), ``gravity_scaled`` (a px scale
+        from gravity), ``drag``, ``contact_height_m`` (floor + radius, m, when both are known; else
+        None: modelled from the flights), ``contact_height_se_m`` (a floor found in a video, m),
+        ``source``, ``scale_rel_se`` (1), ``contact_guard_s`` (half a frame interval for a video, whose
+        frames are exposed around their time; else 0), ``nominal_drag_k_per_m`` and
+        ``nominal_drag_relative_se`` (a smooth ball of the kind's C_d, size and mass, 1/m; 0 when the
+        size or mass is unknown), ``noise_correlation``
+        (:data:`dropfit.tracking.TRACKED_CENTRE_CORRELATION` for a video, else 0), and the ball kind's
+        contact-time prior, exponent and longest contact time (:mod:`dropfit.balls`) with the radius.
+    """
+    settings = settings or Settings()
+    gravity = settings.site_gravity()
+    radius, mass = attrs.get("ball_radius_m"), attrs.get("ball_mass_kg")
+    floor = attrs.get("floor_m")
+    video = "video" in attrs
+    try:
+        kind = ball_kind(attrs.get("ball_type"))
+    except InputError as error:  # a trajectory measured before ball types were checked
+        raise InputError(f"{shown_path(attrs.get('source', 'trajectory'))}: {error}") from None
+    drag = nominal_drag_of(attrs)
+    return {
+        "gravity_m_s2": gravity.value_m_s2,
+        "drag": settings.drag,
+        # with the floor and the radius known, the ball touches down where its centre is one radius up
+        "contact_height_m": floor + radius if floor is not None and radius is not None else None,
+        "contact_height_se_m": float(attrs.get("floor_se_m", 0.0)),
+        "source": str(attrs.get("source", "trajectory")),
+        "scale_rel_se": float(attrs.get("scale_rel_se", 0.0)),
+        # a video frame is exposed for up to one frame interval around its time: keep the flights half an
+        # interval clear of the contacts, where a frame may show the ball flattened
+        "contact_guard_s": 0.5 * sample_interval_s if video else 0.0,
+        "nominal_drag_k_per_m": drag[0],
+        "nominal_drag_relative_se": drag[1],
+        "noise_correlation": TRACKED_CENTRE_CORRELATION if video else 0.0,
+        "gravity_se_m_s2": gravity.se_m_s2,
+        "gravity_scaled": gravity_scaled(attrs),
+        "contact_time_prior_s": (kind.contact_time_s, kind.contact_time_se_s),
+        "contact_time_exponent": (kind.contact_time_exponent, kind.contact_time_exponent_se),
+        "max_contact_time_s": kind.max_contact_time_s,
+        "ball_radius_m": radius,
+    }
+
+
+def analyse_trajectory(trajectory, settings=None, source=None):
+    """Trajectory → flights, impacts and their uncertainties, as every part of dropfit analyses it.
+
+    Parameters
+    ----------
+    trajectory : xarray.Dataset
+        As :func:`measure_recording` makes it (``time`` in s, ``y`` in m, attributes).
+    settings : dropfit.settings.Settings, optional
+        Drag mode and the site's g.
+    source : str, optional
+        Name for messages when the attributes name no ``source``.
+
+    Returns
+    -------
+    dropfit.analysis.BounceAnalysis
+        The analysis of :func:`dropfit.analysis.analyse_bounces` with :func:`analysis_options`; a
+        video's impacts whose flights are too briefly filmed are dropped
+        (:func:`dropfit.video_limits.select_resolved_impacts`). Its summary also holds the options
+        (``analysis_options``, JSON-ready, without ``source``) and the g used (``gravity``: value, se,
+        unit, source, note).
+    """
+    settings = settings or Settings()
+    attrs = dict(trajectory.attrs)
+    if source is not None:
+        attrs.setdefault("source", str(source))
+    time = trajectory["time"].values
+    interval = float(np.median(np.diff(time))) if time.size > 1 else 0.0
+    options = analysis_options(attrs, settings, interval)
+    analysis = analyse_bounces(time, trajectory["y"].values, **options)
+    if "video" in attrs:  # a video's later bounces may be too briefly filmed to resolve
+        analysis = video_limits.select_resolved_impacts(analysis, attrs["video"], interval)
+    record = {key: plain(value) for key, value in options.items() if key != "source"}
+    summary = dict(analysis.summary, analysis_options=record, gravity=settings.site_gravity().record())
+    return dataclasses.replace(analysis, summary=summary)
+
+
+def fit_analysis(analysis, trajectory_attrs, settings=None, ball_type=None):
+    """Analysis → fit result (the content of ``fit.json``, JSON-ready; NaN where JSON has null).
+
+    Parameters
+    ----------
+    analysis : dropfit.analysis.BounceAnalysis
+        As :func:`analyse_trajectory` gives it.
+    trajectory_attrs : mapping
+        The attributes of the trajectory analysed (ball, calibration, provenance).
+    settings : dropfit.settings.Settings, optional
+        The ITF window and tolerance (m).
+    ball_type : str, optional
+        Overrides the trajectory's kind of ball.
+    """
+    return fit_summary(analysis_summary(analysis, trajectory_attrs), analysis.impacts, settings, ball_type)
+
+
+def _given_trajectory(trajectory, ball, settings, sample_id):
+    """A measured trajectory with what the caller gives about the ball, the floor and the sample set in a
+    copy of its attributes."""
+    given = [name for name in MEASURE_ONLY_SETTINGS if getattr(settings, name) is not None]
+    if given:
+        raise InputError(f"{trajectory.attrs.get('source', 'trajectory')}: {', '.join(given)} appl"
+                         f"{'ies' if len(given) == 1 else 'y'} to measuring a recording; this trajectory is "
+                         f"measured already: give the recording's path instead")
+    trajectory = trajectory.copy()
+    trajectory.attrs = dict(trajectory.attrs)
+    trajectory.attrs.update({f"ball_{name}": value for name, value in dataclasses.asdict(ball).items()
+                             if value is not None})
+    if settings.floor_m is not None:
+        trajectory.attrs["floor_m"] = settings.floor_m
+        trajectory.attrs.pop("floor_se_m", None)  # a given floor replaces one found in the image
+    if sample_id is not None:
+        trajectory.attrs["sample_id"] = sample_id
+    return trajectory
+
+
+def process_recording(recording, ball=None, settings=None, *, sample_id=None):
+    """:func:`analyse_recording` with the ball and the settings as objects."""
+    import xarray as xr
+
+    ball = ball or Ball()
+    settings = settings or Settings()
+    if isinstance(recording, xr.Dataset):
+        trajectory = _given_trajectory(recording, ball, settings, sample_id)
+    elif isinstance(recording, (str, os.PathLike)):
+        trajectory = measure_recording(recording, ball, settings, sample_id=sample_id)
+    else:
+        raise TypeError(f"a recording is a path or a trajectory (xarray.Dataset), not {type(recording).__name__}")
+    analysis = analyse_trajectory(trajectory, settings)
+    fit = fit_analysis(analysis, trajectory.attrs, settings)
+    return RecordingResult(trajectory=trajectory, analysis=analysis, fit=fit, settings=settings, ball=ball)
+
+
+def analyse_recording(recording, *, ball_radius_m=None, ball_mass_kg=None, ball_type=None, sample_id=None,
+                      settings=None, **options):
+    """Analyse one drop-test recording as the workflow does: measure, analyse, fit.
+
+    Parameters
+    ----------
+    recording : str, pathlib.Path or xarray.Dataset
+        A height log or video, or a trajectory already measured (:func:`measure_recording`,
+        :func:`dropfit.heightlog.make_trajectory`).
+    ball_radius_m, ball_mass_kg : float, optional
+        The ball's radius in m and mass in kg (for a trajectory: replace its attributes).
+    ball_type : str, optional
+        Kind of ball (:data:`dropfit.balls.BALL_KINDS`); ``tennis`` gets the ITF verdict.
+    sample_id : str, optional
+        Name of the recording.
+    settings : dropfit.settings.Settings, optional
+        Start from these settings instead of the defaults.
+    **options
+        Any field of :class:`dropfit.settings.Settings`, with its unit in the name: ``floor_m``,
+        ``scale_m_per_px``, ``ruler_tick_m``, ``capture_fps``, ``gravity_m_s2``, ``latitude_deg``,
+        ``altitude_m``, ``drag``, ``itf_drop_height_m``, ``itf_rebound_min_m``,
+        ``itf_rebound_max_m``, ``itf_drop_height_tolerance_m``.
+
+    Returns
+    -------
+    dropfit.result.RecordingResult
+        ``params`` (every reported quantity with its standard error and 95 % interval),
+        ``impacts``, ``flights``, ``notes``, ``report()``, ``to_dict()`` (the workflow's fit.json).
+
+    Raises
+    ------
+    dropfit.settings.OptionError
+        For an option outside its range.
+    dropfit.errors.InputError
+        For a recording that cannot be analysed (one line saying why).
+    """
+    ball, _ = split_options({"ball_radius_m": ball_radius_m, "ball_mass_kg": ball_mass_kg, "ball_type": ball_type})
+    settings = (settings or Settings()).replace(**options)
+    return process_recording(recording, ball, settings, sample_id=sample_id)

@@ -1,0 +1,427 @@
+"""Every option of a recording's measurement, analysis and fit, with its unit and default, in one place.
+
+:class:`Ball` says what was dropped; :class:`Settings` how the recording was made and how to
+analyse and judge it. Both are checked once, when made: a value outside its range raises
+:class:`OptionError`, one line naming the option. The defaults live only in these two classes.
+
+:data:`OPTIONS` describes each option once (its unit, range, the stages that use it, where the
+workflow's ``config/config.yaml`` and sample sheet hold it). The command line builds its flags from
+it (``--ball-radius-m`` for ``ball_radius_m``), and the workflow maps its config and sample-sheet
+row onto the same names (:func:`workflow_values`, :func:`stage_arguments`): an option the user
+leaves out is not passed, so the stage takes the default from here.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import numbers
+from dataclasses import dataclass
+
+from .balls import BALL_KINDS, ball_kind
+from .errors import InputError, shown
+from .physics import (NORMAL_GRAVITY_SE_M_S2, STANDARD_GRAVITY_M_S2, UNKNOWN_SITE_GRAVITY_SE_M_S2,
+                      normal_gravity)
+from .restitution import ITF_DROP_HEIGHT_M, ITF_REBOUND_MAX_M, ITF_REBOUND_MIN_M
+
+#: The options that together say where the recording was made: a sample-sheet row that gives any of
+#: them replaces all three of the config's.
+SITE_OPTIONS = ("gravity_m_s2", "latitude_deg", "altitude_m")
+
+
+class OptionError(InputError):
+    """An option value outside its range: one line naming the option.
+
+    ``str(error)`` names options as keyword arguments (``ball_radius_m``); :meth:`named` names them
+    as the caller does (the command line: ``--ball-radius-m``).
+    """
+
+    def __init__(self, template, *options):
+        self.template, self.options = template, options
+        super().__init__(template.format(*options))
+
+    def named(self, name_of):
+        """The message with every option named by ``name_of(option)``."""
+        return self.template.format(*(name_of(option) for option in self.options))
+
+
+@dataclass(frozen=True)
+class Option:
+    """One option: its name (keyword argument, sample-sheet column, ``--flag``), unit and range.
+
+    Attributes
+    ----------
+    name : str
+        Keyword argument of :class:`Ball` (without the ``ball_`` prefix) or :class:`Settings`.
+    help : str
+        What it is, with its unit (the command line's help).
+    stages : tuple of str
+        The command-line stages that take it (``run`` takes those of measure, analyse and fit).
+    what : str
+        What to give instead of a value outside the range (for the message).
+    low, high : float
+        The range of a number; ``low_allowed`` says whether ``low`` itself is allowed.
+    choices : tuple of str, optional
+        The allowed values of a text option.
+    config : tuple of str, optional
+        Its key path in the workflow's ``config/config.yaml``.
+    column : bool
+        Whether the workflow's sample sheet may give it per recording (a column of the same name).
+    text : bool
+        A text option (else a number).
+    """
+
+    name: str
+    help: str
+    stages: tuple
+    what: str = ""
+    low: float = -math.inf
+    high: float = math.inf
+    low_allowed: bool = True
+    choices: tuple | None = None
+    config: tuple | None = None
+    column: bool = False
+    text: bool = False
+
+    @property
+    def flag(self):
+        """The command-line flag, ``--`` and the name with ``-`` for ``_``."""
+        return "--" + self.name.replace("_", "-")
+
+    def check(self, value):
+        """``value`` as the option holds it (a float, or the text), or :class:`OptionError`. None stays None."""
+        if value is None:
+            return None
+        if self.text:
+            if self.choices and value not in self.choices:
+                raise OptionError(f"{{0}} is '{shown(value)}'; give one of {', '.join(self.choices)}", self.name)
+            return value
+        if isinstance(value, bool) or not isinstance(value, numbers.Real):
+            raise OptionError(f"{{0}} is '{shown(value)}', not a number; give {self.what}", self.name)
+        value = float(value)
+        if self.name == "scale_m_per_px":
+            inside = math.isfinite(value) and value != 0
+        else:
+            inside = math.isfinite(value) and (value >= self.low if self.low_allowed else value > self.low) \
+                and value <= self.high
+        if not inside:
+            raise OptionError(f"{{0}} is {value:g}; give {self.what}", self.name)
+        return value
+
+
+_MEASURE, _ANALYSE, _SITE = ("measure", "run"), ("analyse", "run"), ("measure", "analyse", "run")
+_FIT, _ITF = ("fit", "run"), ("fit", "qc", "run")
+
+#: Every option, in the order of the command line's help. The upper bounds catch a value in the
+#: wrong unit (a radius of 33.5 given in mm).
+OPTIONS = {option.name: option for option in (
+    Option("ball_radius_m", "ball radius in m", _MEASURE, "the ball's radius in m (a tennis ball: 0.0335)",
+           0.0, 1.0, False, column=True),
+    Option("ball_mass_kg", "ball mass in kg", _MEASURE, "the ball's mass in kg (a tennis ball: 0.057)",
+           0.0, 20.0, False, column=True),
+    Option("ball_type", f"kind of ball: {', '.join(BALL_KINDS)} (tennis gets the ITF verdict)",
+           _MEASURE + ("fit",), text=True, column=True),
+    Option("scale_m_per_px", "m per px for logs in px (negative if the axis points down) or videos; "
+           "default: calibrated (videos: ruler > gravity > ball diameter; px logs: gravity)", _MEASURE,
+           "metres per pixel (negative for image rows), not 0", column=True),
+    Option("ruler_tick_m", "video: spacing in m of the finest ticks of a ruler in the ball's plane (scale from it)",
+           _MEASURE, "the ruler's finest tick spacing in m (e.g. 0.01)", 0.0, 1.0, False, column=True),
+    Option("floor_m", "height of the floor in the log's frame, in m (makes contact times measurable)", _MEASURE,
+           "the floor's height in m in the log's frame", column=True),
+    Option("height_reference", "the point of the ball a height log gives: its centre (default), bottom or top",
+           _MEASURE, choices=("centre", "bottom", "top"), text=True, column=True),
+    Option("capture_fps", "capture rate in frames/s of a slow-motion video whose file states another rate",
+           _MEASURE, "the capture rate in frames/s", 0.0, math.inf, False, column=True),
+    Option("gravity_m_s2", "gravity at the site in m/s² (wins over --latitude-deg); default: not known, "
+           "standard gravity with the ±0.3 % spread over the Earth", _SITE, "gravity in m/s² (9.80665 on Earth)",
+           0.0, 100.0, False, config=("gravity_m_s2",), column=True),
+    Option("latitude_deg", "geodetic latitude of the site in degrees: g from the WGS84 normal gravity",
+           _SITE, "the site's latitude in degrees (−90 to 90)", -90.0, 90.0, True, config=("latitude_deg",),
+           column=True),
+    Option("altitude_m", "height of the site above sea level in m (with --latitude-deg; default 0)", _SITE,
+           "the site's height above sea level in m", -1000.0, 10000.0, True, config=("altitude_m",), column=True),
+    Option("drag", "quadratic air drag k: fitted when BIC prefers it (auto), never or always; when not fitted, "
+           "held at a smooth sphere's k if the ball's radius and mass are known", _ANALYSE,
+           choices=("auto", "off", "on"), config=("analysis", "drag"), text=True),
+    Option("itf_drop_height_m", "ITF drop height in m (bottom of the ball above the floor)", _ITF,
+           "the ITF drop height in m (2.54)", 0.0, math.inf, False, config=("itf", "drop_height_m")),
+    Option("itf_rebound_min_m", "lowest ITF rebound height in m", _ITF,
+           "the ITF window's lower rebound height in m (1.35)", 0.0, math.inf, False, config=("itf", "rebound_min_m")),
+    Option("itf_rebound_max_m", "highest ITF rebound height in m", _ITF,
+           "the ITF window's upper rebound height in m (1.47)", 0.0, math.inf, False, config=("itf", "rebound_max_m")),
+    Option("itf_drop_height_tolerance_m", "how far in m the drop height may be from the ITF drop height for the "
+           "measured rebound to be used (else it is predicted)", _FIT, "the drop-height tolerance in m (0.02)",
+           0.0, math.inf, True, config=("itf", "drop_height_tolerance_m")),
+)}
+
+#: Options of :class:`Ball`: option name → field name.
+BALL_FIELDS = {"ball_radius_m": "radius_m", "ball_mass_kg": "mass_kg", "ball_type": "type"}
+
+
+@dataclass(frozen=True)
+class Ball:
+    """The ball that was dropped. Every field may be unknown (None).
+
+    Attributes
+    ----------
+    radius_m : float, optional
+        Radius in m (option ``ball_radius_m``). With the floor it gives the contact height, with the
+        mass the drag of a smooth sphere; a video's scale can come from it.
+    mass_kg : float, optional
+        Mass in kg (option ``ball_mass_kg``), for the nominal drag and the contact's k and c.
+    type : str, optional
+        Kind of ball (option ``ball_type``): one of :data:`dropfit.balls.BALL_KINDS`, any case,
+        stored in lower case. ``tennis`` gets the ITF verdict.
+    """
+
+    radius_m: float | None = None
+    mass_kg: float | None = None
+    type: str | None = None
+
+    def __post_init__(self):
+        for option, name in BALL_FIELDS.items():
+            object.__setattr__(self, name, OPTIONS[option].check(getattr(self, name)))
+        if self.type is not None:
+            if not isinstance(self.type, str) or self.type.strip().lower() not in BALL_KINDS:
+                raise OptionError(f"{{0}} is '{shown(self.type)}', not a kind dropfit knows; give one of "
+                                  f"{', '.join(BALL_KINDS)}", "ball_type")
+            object.__setattr__(self, "type", ball_kind(self.type).name)
+
+    def options(self):
+        """The known fields as options (``ball_radius_m`` …)."""
+        return {option: getattr(self, name) for option, name in BALL_FIELDS.items() if getattr(self, name) is not None}
+
+
+@dataclass(frozen=True)
+class SiteGravity:
+    """The g an analysis uses, with its standard error and where it comes from.
+
+    Attributes
+    ----------
+    value_m_s2, se_m_s2 : float
+        g and its standard error in m/s².
+    source : str
+        ``given``, ``normal gravity`` (WGS84 with the free-air correction, from the latitude and
+        altitude) or ``unknown site`` (standard gravity with the ±0.3 % spread of g over the Earth).
+    note : str
+        One sentence for the report.
+    """
+
+    value_m_s2: float
+    se_m_s2: float
+    source: str
+    note: str
+
+    def record(self):
+        """JSON-ready ``{"value", "se", "unit", "source", "note"}``."""
+        return {"value": self.value_m_s2, "se": self.se_m_s2, "unit": "m/s2", "source": self.source,
+                "note": self.note}
+
+
+@dataclass(frozen=True)
+class Settings:
+    """How a recording was made and how dropfit measures, analyses and judges it.
+
+    Every field is an option of the same name (:data:`OPTIONS`): a keyword argument of
+    :func:`dropfit.analyse_recording`, a ``--flag`` of the command line, a key of the workflow's
+    config or a column of its sample sheet. The values are checked when the object is made
+    (:class:`OptionError`); :meth:`replace` makes a changed copy, checked again.
+
+    Attributes
+    ----------
+    scale_m_per_px : float, optional
+        Length scale in m/px of a px log (negative when the pixel axis points down, as image rows
+        do) or of a video. Default None: calibrated (a video: ruler > gravity > ball diameter; a px
+        log: gravity).
+    ruler_tick_m : float, optional
+        Video: spacing in m of the finest ticks of a ruler in the ball's plane, for the scale from
+        the ruler. Default None: no ruler.
+    floor_m : float, optional
+        Height of the floor in m in the recording's frame (after unit conversion). With the ball's
+        radius it gives the contact height, and contact times become measurable. Default None:
+        not known (a video's floor is then found in the image; a log's contact height is modelled).
+    height_reference : {"centre", "bottom", "top"}
+        The point of the ball a height log gives (an ultrasonic sensor sees the bottom; a tracker may
+        follow the top); the trajectory is of the centre, one radius from either. Default ``"centre"``.
+    capture_fps : float, optional
+        Capture rate in frames/s of a slow-motion video whose file states another rate. Default
+        None: the file's rate, checked against gravity where a scale allows.
+    gravity_m_s2 : float, optional
+        g at the site in m/s², taken as exact. It wins over ``latitude_deg``. Default None: see
+        :meth:`site_gravity`.
+    latitude_deg : float, optional
+        Geodetic latitude of the site in degrees (−90 … 90): g is then the WGS84 normal gravity
+        (:func:`dropfit.physics.normal_gravity`). Default None.
+    altitude_m : float, optional
+        Height of the site above sea level in m, with ``latitude_deg`` (free-air correction).
+        Default None: 0 m.
+    drag : {"auto", "off", "on"}
+        Quadratic air drag k (1/m): fitted when the BIC prefers it, never, or always. When not
+        fitted it is held at that of a smooth sphere of the ball's radius and mass (0 when either is
+        unknown). Default ``"auto"``.
+    itf_drop_height_m : float
+        ITF drop height in m (bottom of the ball above the floor). Default 2.54 (ITF Rules of
+        Tennis, Appendix I).
+    itf_rebound_min_m, itf_rebound_max_m : float
+        The ITF rebound window in m. Default 1.35 and 1.47.
+    itf_drop_height_tolerance_m : float
+        How far in m the measured drop height may be from ``itf_drop_height_m`` for the measured
+        rebound, scaled to that height, to be judged; farther, the rebound is predicted from e and
+        the drag. Default 0.02.
+    """
+
+    scale_m_per_px: float | None = None
+    ruler_tick_m: float | None = None
+    floor_m: float | None = None
+    height_reference: str = "centre"
+    capture_fps: float | None = None
+    gravity_m_s2: float | None = None
+    latitude_deg: float | None = None
+    altitude_m: float | None = None
+    drag: str = "auto"
+    itf_drop_height_m: float = ITF_DROP_HEIGHT_M
+    itf_rebound_min_m: float = ITF_REBOUND_MIN_M
+    itf_rebound_max_m: float = ITF_REBOUND_MAX_M
+    itf_drop_height_tolerance_m: float = 0.02
+
+    def __post_init__(self):
+        for item in dataclasses.fields(self):
+            value = OPTIONS[item.name].check(getattr(self, item.name))
+            if value is None and item.default is not None:
+                raise OptionError(f"{{0}} must be given (default {item.default})", item.name)
+            object.__setattr__(self, item.name, value)
+        if not self.itf_rebound_min_m < self.itf_rebound_max_m:
+            raise OptionError(f"the ITF rebound window is empty ({{0}} {self.itf_rebound_min_m:g} is not below {{1}} "
+                              f"{self.itf_rebound_max_m:g}); give the lower limit first",
+                              "itf_rebound_min_m", "itf_rebound_max_m")
+        if self.altitude_m is not None and self.latitude_deg is None and self.gravity_m_s2 is None:
+            raise OptionError("{0} is given without {1}; give the site's latitude too (g depends on both)",
+                              "altitude_m", "latitude_deg")
+
+    def replace(self, **changes):
+        """A copy with ``changes`` (option name → value), checked; TypeError for an unknown option."""
+        unknown = sorted(set(changes) - {item.name for item in dataclasses.fields(self)})
+        if unknown:
+            raise TypeError(f"unknown setting{'s' if len(unknown) > 1 else ''} {', '.join(unknown)}; the settings are "
+                            f"{', '.join(item.name for item in dataclasses.fields(self))}")
+        return dataclasses.replace(self, **changes)
+
+    def to_dict(self):
+        """Every setting, name → value (JSON-ready)."""
+        return dataclasses.asdict(self)
+
+    def site_gravity(self):
+        """The g to use, with its standard error (:class:`SiteGravity`).
+
+        A given ``gravity_m_s2`` is exact (se 0). Else, with ``latitude_deg`` (and ``altitude_m``),
+        the WGS84 normal gravity with the free-air correction, se
+        :data:`dropfit.physics.NORMAL_GRAVITY_SE_M_S2` (local anomalies). Else the site is unknown:
+        standard gravity, se :data:`dropfit.physics.UNKNOWN_SITE_GRAVITY_SE_M_S2` (g spans ±0.3 %
+        over the Earth's surface).
+        """
+        if self.gravity_m_s2 is not None:
+            return SiteGravity(self.gravity_m_s2, 0.0, "given", f"g = {self.gravity_m_s2:g} m/s² as given, taken as exact")
+        if self.latitude_deg is not None:
+            altitude = self.altitude_m or 0.0
+            value = normal_gravity(self.latitude_deg, altitude)
+            return SiteGravity(value, NORMAL_GRAVITY_SE_M_S2, "normal gravity",
+                               f"g = {value:.5f} m/s² ± {NORMAL_GRAVITY_SE_M_S2:g}: WGS84 normal gravity at latitude "
+                               f"{self.latitude_deg:g}°, {altitude:g} m above sea level (free-air correction)")
+        return SiteGravity(STANDARD_GRAVITY_M_S2, UNKNOWN_SITE_GRAVITY_SE_M_S2, "unknown site",
+                           f"g = {STANDARD_GRAVITY_M_S2} m/s² (standard gravity) ± {UNKNOWN_SITE_GRAVITY_SE_M_S2:.3f}: "
+                           f"the site is not known (give gravity_m_s2, or latitude_deg and altitude_m)")
+
+
+def split_options(values):
+    """(:class:`Ball`, :class:`Settings`) from option name → value (None or absent: the default).
+
+    Raises
+    ------
+    OptionError
+        For the first value outside its range (the ball's first).
+    TypeError
+        For a name that is no option.
+    """
+    values = {name: value for name, value in values.items() if value is not None}
+    unknown = sorted(set(values) - set(OPTIONS))
+    if unknown:
+        raise TypeError(f"unknown option{'s' if len(unknown) > 1 else ''} {', '.join(unknown)}; the options are "
+                        f"{', '.join(OPTIONS)}")
+    ball = Ball(**{BALL_FIELDS[name]: value for name, value in values.items() if name in BALL_FIELDS})
+    return ball, Settings(**{name: value for name, value in values.items() if name not in BALL_FIELDS})
+
+
+def _given(value):
+    """True unless ``value`` is missing: None, NaN or blank text (an empty sample-sheet cell)."""
+    if value is None:
+        return False
+    if isinstance(value, float) and math.isnan(value):
+        return False
+    return str(value).strip() != ""
+
+
+def _plain(value):
+    """A Python value from a YAML or pandas one (numpy scalars to float or str)."""
+    if hasattr(value, "item") and not isinstance(value, (str, bytes)):
+        value = value.item()
+    return value
+
+
+def workflow_values(config, row=None):
+    """The options the workflow gives one recording: option name → value, missing ones left out.
+
+    Parameters
+    ----------
+    config : dict
+        The workflow's config (``config/config.yaml``): ``gravity_m_s2``, ``latitude_deg``,
+        ``altitude_m``, ``analysis.drag``, ``itf.*`` (see :data:`OPTIONS`, ``config``).
+    row : mapping, optional
+        The recording's sample-sheet row (a pandas Series or dict); its columns named as options
+        win over the config. A row that gives any of :data:`SITE_OPTIONS` replaces all three of the
+        config's (a site is given whole).
+    """
+    values = {}
+    for option in OPTIONS.values():
+        if option.config:
+            value = config
+            for key in option.config:
+                value = value.get(key) if isinstance(value, dict) else None
+            if _given(value):
+                values[option.name] = _plain(value)
+    if row is not None:
+        columns = {option.name: _plain(row.get(option.name)) for option in OPTIONS.values()
+                   if option.column and _given(row.get(option.name))}
+        if any(name in columns for name in SITE_OPTIONS):
+            for name in SITE_OPTIONS:
+                values.pop(name, None)
+        values.update(columns)
+    return {name: values[name] for name in OPTIONS if name in values}
+
+
+def settings_from_config(config, row=None):
+    """(:class:`Ball`, :class:`Settings`) of one recording of the workflow (see :func:`workflow_values`),
+    checked: what a notebook uses to analyse a recording as the workflow does."""
+    return split_options(workflow_values(config, row))
+
+
+def stage_arguments(stage, config, row=None):
+    """The ``--flag value`` arguments (strings, unquoted) of one workflow stage of one recording: the
+    options of :func:`workflow_values` that ``dropfit <stage>`` takes."""
+    arguments = []
+    for name, value in workflow_values(config, row).items():
+        if stage in OPTIONS[name].stages:
+            arguments += [OPTIONS[name].flag, repr(value) if isinstance(value, float) else str(value)]
+    return arguments
+
+
+def option_default(name):
+    """The default of option ``name`` (None: not given)."""
+    owner = Ball if name in BALL_FIELDS else Settings
+    key = BALL_FIELDS.get(name, name)
+    return next(item.default for item in dataclasses.fields(owner) if item.name == key)
+
+
+__all__ = ["BALL_FIELDS", "OPTIONS", "SITE_OPTIONS", "Ball", "Option", "OptionError", "Settings",
+           "SiteGravity", "option_default", "settings_from_config", "split_options", "stage_arguments",
+           "workflow_values"]
+
