@@ -14,8 +14,9 @@ those simulated.
 
 Writes ``benchmarks/refsim_coverage.csv`` (the coverage table), ``benchmarks/refsim_coverage_recordings.csv``
 (impacts and failures per scenario and floor), ``benchmarks/refsim_coverage_failures.csv`` (each kind of
-failure message) and the chart ``benchmarks/refsim_coverage.png``; ``--pairs`` also keeps every pair
-in ``benchmarks/refsim_coverage_pairs.csv.gz``.
+failure message) and the chart ``benchmarks/refsim_coverage.png``, and prints the README's tables;
+``--pairs`` also keeps every pair in ``benchmarks/refsim_coverage_pairs.csv.gz``; ``--markdown``
+prints the README's tables again from the CSVs.
 """
 
 import argparse
@@ -97,6 +98,48 @@ def chart(table, recordings, path):
     plt.close(fig)
 
 
+def _pct(value):
+    return "–" if not np.isfinite(value) else f"{100 * value:.1f} %"
+
+
+def _number(value, digits=1):
+    return "–" if not np.isfinite(value) or value == 0 and digits == 2 else f"{value:.{digits}f}"
+
+
+def markdown(table, summary):
+    """The README's tables: coverage per scenario × quantity with the floor given and unknown (coverage,
+    pairs, mean ± sd of z; **bold** outside 90–98 %), then recordings and impacts per scenario."""
+    lines = ["| scenario | quantity | floor given: coverage | pairs | z mean ± sd | floor unknown: coverage | pairs "
+             "| z mean ± sd |", "|---|---|---|---|---|---|---|---|"]
+    for scenario in dict.fromkeys(summary["scenario"]):
+        rows = table[table["scenario"] == scenario]
+        if rows.empty:
+            lines.append(f"| {scenario} | all | skipped | | | skipped | | |")
+            continue
+        for quantity in QUANTITY_LABELS:
+            cells = []
+            for floor in refsim_trials.FLOOR_CONDITIONS:
+                row = rows[(rows["floor"] == floor) & (rows["quantity"] == quantity)]
+                if row.empty:
+                    cells += ["–", "0", ""]
+                    continue
+                row = row.iloc[0]
+                text = _pct(row["coverage"])
+                if not BAND[0] <= row["coverage"] <= BAND[1]:
+                    text = f"**{text}**"
+                cells += [text, f"{row['n']:.0f}", f"{row['mean_z']:+.2f} ± {row['sd_z']:.2f}"]
+            if cells[1] == "0" and cells[4] == "0":
+                continue
+            lines.append(f"| {scenario} | {QUANTITY_LABELS[quantity]} | " + " | ".join(cells) + " |")
+    lines += ["", "| scenario | floor | recordings | failed | skipped | impacts simulated | analysed | per recording "
+                  "s (simulate, analyse) |", "|---|---|---|---|---|---|---|---|"]
+    for _, row in summary.iterrows():
+        lines.append(f"| {row['scenario']} | {row['floor']} | {row['recordings']} | {row['failed']} | {row['skipped']} | "
+                     f"{_number(row['impacts_simulated_mean'])} | {_number(row['impacts_analysed_mean'])} | "
+                     f"{_number(row['simulate_s_mean'], 2)}, {_number(row['analyse_s_mean'], 2)} |")
+    return "\n".join(lines)
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("trials", nargs="?", type=int, default=200, help="seeded recordings per scenario")
@@ -104,7 +147,12 @@ def main():
     parser.add_argument("--scenarios", default=",".join(refsim_trials.SCENARIOS))
     parser.add_argument("--out", default=str(HERE / "refsim_coverage"), help="path prefix of the outputs")
     parser.add_argument("--pairs", action="store_true", help="also write every pair (gzip CSV)")
+    parser.add_argument("--markdown", action="store_true",
+                        help="print the README tables from the CSVs already written (no trials)")
     args = parser.parse_args()
+    if args.markdown:
+        print(markdown(pd.read_csv(f"{args.out}.csv"), pd.read_csv(f"{args.out}_recordings.csv")))
+        return
     names = args.scenarios.split(",")
     start = time.perf_counter()
     pairs, recordings = refsim_trials.run_trials([(name, seed) for name in names for seed in range(args.trials)],
@@ -132,6 +180,7 @@ def main():
     if args.pairs:
         pairs.to_csv(f"{prefix}_pairs.csv.gz", index=False, float_format="%.10g")
     chart(table, recordings, f"{prefix}.png")
+    print(markdown(table, summary))
 
 
 if __name__ == "__main__":

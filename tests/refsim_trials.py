@@ -515,8 +515,9 @@ class _single_thread_blas:
 # ------------------------------------------------------------------------------------------------
 def coverage_table(pairs, keys=("scenario", "floor", "quantity")):
     """Per ``keys``: ``n`` pairs, ``n_recordings``, ``coverage`` (fraction with |z| ≤ 1.96), ``mean_z``
-    and ``sd_z`` of z = (value − truth)/se, and ``coverage_se``, the standard error of the coverage
-    with the recordings as clusters (impacts of one recording share flights and the drag)."""
+    and ``sd_z`` of z = (value − truth)/se, ``mean_error`` (value − truth, in the quantity's unit) and
+    ``median_se``, and ``coverage_se``, the standard error of the coverage with the recordings as
+    clusters (impacts of one recording share flights and the drag)."""
     z = (pairs["value"] - pairs["truth"]) / pairs["se"]
     table = pairs.assign(z=z, covered=(np.abs(z) <= Z95).astype(float))
     keys = [key for key in keys if key in table]
@@ -526,6 +527,7 @@ def coverage_table(pairs, keys=("scenario", "floor", "quantity")):
         rows.append({**dict(zip(keys, key if isinstance(key, tuple) else (key,))), "n": len(group),
                      "n_recordings": len(per_recording) if per_recording is not None else np.nan,
                      "coverage": group["covered"].mean(), "mean_z": group["z"].mean(), "sd_z": group["z"].std(),
+                     "mean_error": (group["value"] - group["truth"]).mean(), "median_se": group["se"].median(),
                      "coverage_se": _cluster_se(per_recording) if per_recording is not None else np.nan})
     return pd.DataFrame(rows)
 
