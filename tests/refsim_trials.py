@@ -59,6 +59,9 @@ IMPACT_QUANTITIES = {
 ASSERTED_QUANTITIES = tuple(IMPACT_QUANTITIES)
 #: A site's gravity: WGS84 normal gravity spans 9.780 (equator) to 9.832 m/s² (poles).
 GRAVITY_RANGE_M_S2 = (9.780, 9.832)
+#: The simulation runs this long past a log that ends before the ball rests (s): longer than any
+#: flight's rise there, so that every rebound height has its truth.
+SIMULATED_PAST_LOG_S = 1.0
 #: The columns of the pairs table.
 PAIR_COLUMNS = ["scenario", "seed", "floor", "quantity", "impact", "true_impact", "value", "se", "truth"]
 #: Where the floor is: given to dropfit (``floor_m``) or not.
@@ -204,8 +207,9 @@ def simulate_recording(scenario_name, seed):
     scenario = SCENARIOS[scenario_name]
     p = draw(scenario_name, seed)
     ball = ball_of(scenario, p)
+    # simulated past the log's end, so that the truth knows the apex of a flight the log cuts short
     truth = refsim.simulate(ball, p["drop_height_m"], g_m_s2=p["gravity_m_s2"], h_rest_m=scenario.h_rest_m,
-                            t_end_s=scenario.max_duration_s)
+                            t_end_s=scenario.max_duration_s + SIMULATED_PAST_LOG_S)
     end = min(truth.rest_time_s + scenario.duration_after_rest_s if truth.status == "rest" else truth.t_end_s,
               scenario.max_duration_s)
     start = truth.t_release_s - p["lead_s"]
@@ -355,7 +359,9 @@ def impact_pairs(impacts, true_impacts, match, floor_given):
     """(quantity, impact, true_impact, value, se, truth) of every matched analysed impact.
 
     ``t_contact_s`` (dropfit's ``t_contact_ms`` against refsim's ``contact_time_s``, δ = 0 to δ = 0) is
-    paired only with the floor given and where dropfit marks the contact resolvable.
+    paired only with the floor given and where dropfit marks the contact resolvable. A value or se
+    that dropfit leaves empty stays in (it covers nothing); a truth refsim does not know (NaN) would
+    be an error of this harness, and raises.
     """
     rows = []
     for i, j in enumerate(match):
@@ -368,7 +374,11 @@ def impact_pairs(impacts, true_impacts, match, floor_given):
         if floor_given and _true(row.get("contact_resolvable")):
             rows.append(("t_contact_s", int(row["impact"]), j + 1, 1e-3 * float(row["t_contact_ms"]),
                          1e-3 * float(row["t_contact_se_ms"]), float(true["contact_time_s"])))
-    return pd.DataFrame(rows, columns=["quantity", "impact", "true_impact", "value", "se", "truth"])
+    pairs = pd.DataFrame(rows, columns=["quantity", "impact", "true_impact", "value", "se", "truth"])
+    unknown = pairs[~np.isfinite(pairs["truth"].to_numpy(dtype=float))]
+    if not unknown.empty:
+        raise ValueError(f"refsim has no truth for {unknown[['quantity', 'true_impact']].values.tolist()}")
+    return pairs
 
 
 def _true(flag):
@@ -516,8 +526,9 @@ class _single_thread_blas:
 def coverage_table(pairs, keys=("scenario", "floor", "quantity")):
     """Per ``keys``: ``n`` pairs, ``n_recordings``, ``coverage`` (fraction with |z| ≤ 1.96), ``mean_z``
     and ``sd_z`` of z = (value − truth)/se, ``mean_error`` (value − truth, in the quantity's unit) and
-    ``median_se``, and ``coverage_se``, the standard error of the coverage with the recordings as
-    clusters (impacts of one recording share flights and the drag)."""
+    ``median_se``, ``n_no_interval`` (pairs without a finite value and se, counted as not covered), and
+    ``coverage_se``, the standard error of the coverage with the recordings as clusters (impacts of one
+    recording share flights and the drag)."""
     z = (pairs["value"] - pairs["truth"]) / pairs["se"]
     table = pairs.assign(z=z, covered=(np.abs(z) <= Z95).astype(float))
     keys = [key for key in keys if key in table]
@@ -528,6 +539,7 @@ def coverage_table(pairs, keys=("scenario", "floor", "quantity")):
                      "n_recordings": len(per_recording) if per_recording is not None else np.nan,
                      "coverage": group["covered"].mean(), "mean_z": group["z"].mean(), "sd_z": group["z"].std(),
                      "mean_error": (group["value"] - group["truth"]).mean(), "median_se": group["se"].median(),
+                     "n_no_interval": int((~np.isfinite(group["z"])).sum()),
                      "coverage_se": _cluster_se(per_recording) if per_recording is not None else np.nan})
     return pd.DataFrame(rows)
 

@@ -142,6 +142,9 @@ def test_pairs_take_value_se_and_truth_from_the_matched_rows():
     assert third.loc["h_after_m", "truth"] == 0.5
     # without the floor, contact times are never paired
     assert "t_contact_s" not in set(rt.impact_pairs(impacts, truth, np.array([1, -1, 0]), False)["quantity"])
+    # a truth refsim does not have (a rebound whose apex was never simulated) is a harness error
+    with pytest.raises(ValueError, match="no truth"):
+        rt.impact_pairs(impacts, truth.assign(h_after_m=[0.5, np.nan]), np.array([1, -1, 0]), False)
 
 
 def test_coverage_table_counts_and_clusters():
