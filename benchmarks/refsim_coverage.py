@@ -174,7 +174,7 @@ def main():
         if not failures.empty:
             print(failures.drop(columns="kind").to_string(index=False))
     prefix = Path(args.out)
-    table.to_csv(f"{prefix}.csv", index=False, float_format="%.4f")
+    table.to_csv(f"{prefix}.csv", index=False, float_format="%.6g")
     summary.to_csv(f"{prefix}_recordings.csv", index=False, float_format="%.4g")
     failures.to_csv(f"{prefix}_failures.csv", index=False)
     if args.pairs:
