@@ -16,7 +16,7 @@ Writes ``benchmarks/refsim_coverage.csv`` (the coverage table), ``benchmarks/ref
 (impacts and failures per scenario and floor), ``benchmarks/refsim_coverage_failures.csv`` (each kind of
 failure message) and the chart ``benchmarks/refsim_coverage.png``, and prints the README's tables;
 ``--pairs`` also keeps every pair in ``benchmarks/refsim_coverage_pairs.csv.gz``; ``--markdown``
-prints the README's tables again from the CSVs.
+prints the README's tables and redraws the chart from the CSVs already written.
 """
 
 import argparse
@@ -39,7 +39,7 @@ QUANTITY_LABELS = {"e": "e", "h_after_m": "rebound height", "v_in_m_s": "v_in", 
                    "t_contact_s": "contact time"}
 
 
-def chart(table, recordings, path):
+def chart(table, summary, path):
     """Coverage per quantity × scenario, one panel per floor condition, with the 90–98 % band; below,
     the mean ± sd of z on a symmetric-log axis."""
     import matplotlib
@@ -47,7 +47,7 @@ def chart(table, recordings, path):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    scenarios = list(dict.fromkeys(recordings["scenario"]))
+    scenarios = list(dict.fromkeys(summary["scenario"]))
     quantities = [q for q in QUANTITY_LABELS if q in set(table["quantity"])]
     fig, axes = plt.subplots(2, 2, figsize=(14, 9), sharex=True, sharey="row", gridspec_kw={"height_ratios": [3, 2]})
     width = 0.8 / len(quantities)
@@ -67,13 +67,13 @@ def chart(table, recordings, path):
             sd = np.array([rows["sd_z"].get(s, np.nan) for s in scenarios])
             bottom.errorbar(x, mean, yerr=sd, fmt="o", color=colours[k], ms=4, capsize=2)
         for i, scenario in enumerate(scenarios):
-            status = recordings[(recordings["scenario"] == scenario) & (recordings["floor"] == floor)]["status"]
-            if (status == "skipped").all():
+            row = summary[(summary["scenario"] == scenario) & (summary["floor"] == floor)].iloc[0]
+            if row["skipped"] == row["recordings"]:
                 top.text(i, 50, "skipped:\nno height_reference\nin dropfit", ha="center", va="center", fontsize=8)
-            elif (status == "failed").any():
-                top.text(i, 2, f"{(status == 'failed').sum()}/{len(status)}\nfailed", ha="center", va="bottom",
+            elif row["failed"]:
+                top.text(i, 101, f"{row['failed']:.0f}/{row['recordings']:.0f} failed", ha="center", va="bottom",
                          fontsize=7, color="firebrick")
-        top.set_ylim(0, 102)
+        top.set_ylim(0, 106)
         top.set_title(f"floor {floor}")
         top.tick_params(labelleft=True)
         bottom.tick_params(labelleft=True)
@@ -148,10 +148,12 @@ def main():
     parser.add_argument("--out", default=str(HERE / "refsim_coverage"), help="path prefix of the outputs")
     parser.add_argument("--pairs", action="store_true", help="also write every pair (gzip CSV)")
     parser.add_argument("--markdown", action="store_true",
-                        help="print the README tables from the CSVs already written (no trials)")
+                        help="print the README tables and redraw the chart from the CSVs already written (no trials)")
     args = parser.parse_args()
     if args.markdown:
-        print(markdown(pd.read_csv(f"{args.out}.csv"), pd.read_csv(f"{args.out}_recordings.csv")))
+        table, summary = pd.read_csv(f"{args.out}.csv"), pd.read_csv(f"{args.out}_recordings.csv")
+        chart(table, summary, f"{args.out}.png")
+        print(markdown(table, summary))
         return
     names = args.scenarios.split(",")
     start = time.perf_counter()
@@ -179,7 +181,7 @@ def main():
     failures.to_csv(f"{prefix}_failures.csv", index=False)
     if args.pairs:
         pairs.to_csv(f"{prefix}_pairs.csv.gz", index=False, float_format="%.10g")
-    chart(table, recordings, f"{prefix}.png")
+    chart(table, summary, f"{prefix}.png")
     print(markdown(table, summary))
 
 

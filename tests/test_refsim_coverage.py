@@ -22,16 +22,16 @@ COVERAGE_MIN, COVERAGE_MAX = 0.90, 0.98
 #: Chosen from the benchmark's impacts per recording so that every asserted cell gets at least
 #: MIN_PAIRS pairs; see test_refsim_intervals_cover_the_truth for the spread that buys.
 TRIALS = {
-    "tennis_100hz": 72,
-    "tennis_500hz": 110,
-    "steel_500hz": 86,
-    "rubber_200hz": 64,
-    "table_tennis_100_200hz": 38,
-    "marble_px_200fps": 35,
-    "tennis_bottom_1_2khz": 50,
+    "tennis_100hz": 65,
+    "tennis_500hz": 100,
+    "steel_500hz": 78,
+    "rubber_200hz": 58,
+    "table_tennis_100_200hz": 35,
+    "marble_px_200fps": 32,
+    "tennis_bottom_1_2khz": 45,
 }
 #: A cell with fewer pairs than this fails: its coverage would be too noisy to test against the band.
-MIN_PAIRS = 600
+MIN_PAIRS = 540
 #: At most this fraction of the recordings of a scenario may be refused (each refusal names its reason).
 MAX_FAILED_FRACTION = 0.05
 
@@ -59,18 +59,18 @@ def test_refsim_intervals_cover_the_truth(refsim_trials_run, name):
     refsim's truth, with the floor given and with it unknown (8 cells per scenario).
 
     Why these trial counts: a cell of n independent pairs whose intervals truly cover 95 % has a
-    binomial spread of √(0.95 · 0.05 / n), 0.89 % at n = MIN_PAIRS = 600, which puts the band's 98 %
-    edge 3.4 sd above 95 % and its 90 % edge 5.6 sd below. The impacts of one recording share its
+    binomial spread of √(0.95 · 0.05 / n), 0.94 % at n = MIN_PAIRS = 540, which puts the band's 98 %
+    edge 3.2 sd above 95 % and its 90 % edge 5.3 sd below. The impacts of one recording share its
     flights, noise and drag, so their pairs are not independent: with the recordings as clusters the
     benchmark (benchmarks/refsim_coverage.py, 200 recordings per scenario) measured design effects of
-    0.9–1.9 in the cells where dropfit is calibrated, a spread of up to 1.23 % at 600 pairs: the 98 %
-    edge stays ≥ 2.4 sd away (a calibrated cell fails by chance with probability ≤ 0.8 %) and the 90 %
-    edge ≥ 4 sd. TRIALS gives every cell 640–660 pairs on average (the analysed impacts per recording
-    range from 5.9, a tennis ball at 500 Hz with the floor unknown, to 19, the marble), so that a
-    cell falls below MIN_PAIRS only if dropfit analyses fewer impacts than it does today. The whole
-    test takes about 2.5–3 minutes on two quiet cores (the bottom-of-ball scenario, skipped today, adds
-    about 25 s), 4.5 minutes while other jobs shared them: refsim 0.2–1 s per recording, dropfit
-    0.1–0.7 s per analysis, both analyses of a recording sharing its simulation.
+    0.9–1.9 in the cells where dropfit is calibrated, a spread of up to 1.29 % at 540 pairs: the 98 %
+    edge stays ≥ 2.3 sd away (a calibrated cell fails by chance with probability ≤ 1.1 %) and the 90 %
+    edge ≥ 3.9 sd. TRIALS gives every cell 585–600 pairs on average (the analysed impacts per
+    recording range from 5.9, a tennis ball at 500 Hz with the floor unknown, to 19, the marble), so
+    that a cell falls below MIN_PAIRS only if dropfit analyses fewer impacts than it does today. The
+    test took 3.2 minutes on two cores that other jobs shared (load average 2.5–3.5; the
+    bottom-of-ball scenario, skipped today, will add about 30 s): refsim 0.2–1 s per recording,
+    dropfit 0.1–0.7 s per analysis, both analyses of a recording sharing its simulation.
     """
     _skip_if_unsupported(name)
     pairs, recordings, table = refsim_trials_run
