@@ -297,7 +297,7 @@ def test_a_noise_dip_at_an_apex_does_not_split_the_flight():
     from dropfit.coverage import SCENARIOS
     from dropfit.synth import synthesize
 
-    scenario = SCENARIOS["tennis_contact_2khz"]
+    scenario = dict(SCENARIOS["tennis_contact_2khz"], drag_coefficient=0.0)  # a ball in vacuum
     log, truth = synthesize(scenario, int(np.random.default_rng(26).integers(2**31)))
     analysis = analyse_bounces(log["time_s"], log["y_m"], contact_height_m=scenario["ball"]["radius_m"])
     true_touchdowns = [impact["t_s"] for impact in truth["impacts"] if impact["t_s"] < log["time_s"].max()]

@@ -80,5 +80,18 @@ def test_an_impact_left_out_enters_no_fit(contact_recording):
 def test_fit_rows_reads_the_column_as_the_analysis_writes_it():
     """No column: every impact; booleans; text from a CSV with an empty cell (counted as in the fit)."""
     assert fit_rows(pd.DataFrame({"e": [0.7, 0.8]})).tolist() == [0, 1]
-    assert fit_rows(pd.DataFrame({"in_fit": [True, False, True]})).tolist() == [0, 2]
-    assert fit_rows(pd.DataFrame({"in_fit": ["True", "False", None]})).tolist() == [0, 2]
+    assert fit_rows(pd.DataFrame({"e": [0.7, 0.8, 0.9], "in_fit": [True, False, True]})).tolist() == [0, 2]
+    assert fit_rows(pd.DataFrame({"e": [0.7, 0.8, 0.9], "in_fit": ["True", "False", None]})).tolist() == [0, 2]
+
+
+def test_an_impact_whose_e_is_not_a_number_enters_no_fit(contact_recording):
+    """An impacts table from an analysis that gave a tiny last hop a NaN e (its rebound below the contact
+    height) and no ``in_fit`` column: the fits left it out, where the constant e failed with "SVD did not
+    converge" and lost the whole recording."""
+    summary, impacts = contact_recording
+    old = impacts.drop(columns=["in_fit", "note"])
+    old.loc[len(old) - 1, "e"] = np.nan
+    fitted = fit_summary(summary, old, Settings())
+    assert fitted["restitution"]["n_impacts"] == len(old) - 1
+    assert np.isfinite(fitted["restitution"]["e"]["value"])
+    assert list(fit_rows(old)) == list(range(len(old) - 1))

@@ -17,6 +17,7 @@ import pandas as pd
 from .analysis import se_column_name
 from .heightlog import make_trajectory
 from .balls import ball_kind
+from .physics import STANDARD_GRAVITY_M_S2, UNKNOWN_SITE_GRAVITY_SE_M_S2
 from .pipeline import analyse_recording
 from .restitution import ITF_DROP_HEIGHT_M, Z95
 from .synth import simulate_drop, synthesize
@@ -25,8 +26,11 @@ from .synth import simulate_drop, synthesize
 #: 254 cm rebound of the tennis balls is predicted from a constant e and from a linear e(v).
 #: ``nominal_drag``: the ball's size and mass are given to the analysis, and the truth's C_d is drawn
 #: from the prior the analysis assumes (the ball kind's C_d and its se); otherwise the analysis is not given the
-#: mass, so it knows no drag (the contact scenario needs the mass for k and c: its analysis holds the
-#: nominal drag, which its precise 2 kHz flights pull to the truth's 0).
+#: mass, so it knows no drag. The truth's g is drawn from the spread the analysis assumes for a site it
+#: is not told about (:func:`site_gravity_draw`); ``gravity_known``: the site's g is given (as a lab
+#: that measured it would give it), so the intervals of the 2 kHz contact scenario are tested without
+#: g's share, which would dominate them, and the long rubber log's drag choice without a g error that
+#: a free drag would partly absorb.
 SCENARIOS = {
     "tennis_drag_150cm": {
         "drop_height_m": 1.5, "duration_s": 3.0, "drag_coefficient": "prior", "nominal_drag": True,
@@ -54,13 +58,14 @@ SCENARIOS = {
     },
     "rubber_e_falls": {
         "drop_height_m": 1.5, "duration_s": 4.0, "drag_coefficient": 0.0, "nominal_drag": False,
+        "gravity_known": True,
         "ball": {"radius_m": 0.025, "mass_kg": 0.05, "type": "rubber"},
         "restitution": {"kind": "linear", "e0": 0.9, "slope_s_m": 0.03},
         "sensor": {"sample_rate_hz": 100, "noise_m": 0.001, "offset_m": 0.05},
     },
     "tennis_contact_2khz": {
-        "drop_height_m": 1.0, "duration_s": 1.6, "drag_coefficient": 0.0, "nominal_drag": False,
-        "floor_known": True,
+        "drop_height_m": 1.0, "duration_s": 1.6, "drag_coefficient": "prior", "nominal_drag": True,
+        "floor_known": True, "gravity_known": True,
         "ball": {"radius_m": 0.0335, "mass_kg": 0.057, "type": "tennis"},
         "contact": {"model": "linear", "stiffness_n_m": 30000, "damping_n_s_m": 8.2},
         "sensor": {"sample_rate_hz": 2000, "noise_m": 0.0001, "offset_m": 0.0},
@@ -83,6 +88,7 @@ def log_trial(scenario, seed):
     if scenario["drag_coefficient"] == "prior":  # the truth drawn from the prior the analysis assumes
         kind = ball_kind(scenario["ball"]["type"])
         scenario["drag_coefficient"] = kind.drag_coefficient + kind.drag_coefficient_se * rng.standard_normal()
+    scenario["gravity_m_s2"] = site_gravity_draw(rng)
     log, truth = synthesize(scenario, int(rng.integers(2**31)))
     ball = scenario["ball"]
     trajectory = make_trajectory(log["time_s"].to_numpy(), log["y_m"].to_numpy(), f"coverage log (seed {seed})",
@@ -90,9 +96,16 @@ def log_trial(scenario, seed):
     result = analyse_recording(
         trajectory, ball_radius_m=ball["radius_m"], ball_type=ball["type"],
         ball_mass_kg=ball["mass_kg"] if scenario["nominal_drag"] or "contact" in scenario else None,
-        floor_m=scenario["sensor"].get("offset_m", 0.0) if scenario.get("floor_known") else None)
+        floor_m=scenario["sensor"].get("offset_m", 0.0) if scenario.get("floor_known") else None,
+        gravity_m_s2=scenario["gravity_m_s2"] if scenario.get("gravity_known") else None)
     return (pd.DataFrame(_pairs(scenario, truth, result.analysis, result.fit), columns=["quantity", "value", "se", "truth"]),
             result.fit)
+
+
+def site_gravity_draw(rng):
+    """g in m/s² of a site the analysis is not told about, drawn from the spread it then assumes
+    (standard gravity ± :data:`dropfit.physics.UNKNOWN_SITE_GRAVITY_SE_M_S2`)."""
+    return STANDARD_GRAVITY_M_S2 + UNKNOWN_SITE_GRAVITY_SE_M_S2 * rng.standard_normal()
 
 
 def _pairs(scenario, truth, analysis, fitted):
@@ -139,7 +152,8 @@ def _itf_truth(scenario):
     """First rebound in m of the scenario's ball dropped from the ITF height."""
     ball = scenario["ball"]
     drop = simulate_drop(ITF_DROP_HEIGHT_M, ball["radius_m"], scenario["restitution"], mass_kg=ball["mass_kg"],
-                         drag_coefficient=scenario["drag_coefficient"], max_time_s=1.5)
+                         drag_coefficient=scenario["drag_coefficient"], gravity_m_s2=scenario["gravity_m_s2"],
+                         max_time_s=1.5)
     return float(drop.impacts["rebound_height_m"].iloc[0])
 
 
@@ -179,7 +193,7 @@ def video_trial(seed, directory, scenario=None, floor_known=True):
     that measured it would give it; with ``floor_known`` false it is found in the image, the
     workflow's default for a video without ``floor_m``), and e and the rebound heights are tested;
     contact times are not resolvable at 120 fps. The ball's mass is not given (the rendered ball
-    flies without drag). The e0 of the ball is drawn per seed from 0.70–0.80 so that the clips differ
+    flies without drag); the site's g is drawn as in :func:`log_trial`. The e0 of the ball is drawn per seed from 0.70–0.80 so that the clips differ
     in more than their pixel noise.
 
     Raises
@@ -200,7 +214,8 @@ def video_trial(seed, directory, scenario=None, floor_known=True):
     rng = np.random.default_rng(seed)
     e0 = float(rng.uniform(0.70, 0.80))
     truth = simulate_drop(spec["drop_height_m"], spec["radius_m"], {"kind": "constant", "e0": e0},
-                          mass_kg=spec["mass_kg"], release_time_s=spec["release_time_s"])
+                          mass_kg=spec["mass_kg"], release_time_s=spec["release_time_s"],
+                          gravity_m_s2=site_gravity_draw(rng))
     camera = Camera(spec["width_px"], spec["height_px"], spec["fps"], 0.0, px_per_m=spec["px_per_m"],
                     image_row_of_floor_px=spec["image_row_of_floor_px"], noise_sigma=spec["noise_sigma"],
                     quality=spec["quality"])

@@ -138,8 +138,18 @@ def fit_summary(summary, impacts, settings=None, ball_type=None):
         "theory": theory,
         "itf": itf,
         "config": _config(summary, settings),
+        "data": _data_record(summary),
+        "notes": list(summary.get("notes") or []),
     }
     return result
+
+
+def _data_record(summary):
+    """What of the recording entered the analysis: samples left out as the hand's, as tracking jumps and
+    as outliers of the flight fit, the release time (s) and the noise (m)."""
+    return {"hand_samples": summary.get("hand_samples"), "tracking_jump_samples": summary.get("tracking_jump_samples"),
+            "residual_outlier_samples": summary.get("residual_outlier_samples"),
+            "release_time_s": summary.get("release_time_s"), "noise_m": summary.get("noise_m")}
 
 
 def _config(summary, settings):
@@ -174,34 +184,41 @@ def _time_base_record(attrs):
 
 
 def _contact_time(summary, resolvable_rows):
+    """Whether contact times are reported, why, and, with the floor not known, the contact time at 1 m/s
+    that the flights and the ball kind's prior give (the model behind the contact height)."""
     if not resolvable_rows.empty:
         return {"resolvable": True, "n_impacts": len(resolvable_rows),
                 "why": "the floor is known, the sampling resolves the contact and each contact time stands "
                        "well clear of its uncertainty (impacts marked in the impacts table)"}
     if summary["contact_height_source"] == "given":
-        why = "the contact times are not resolved: shorter than two sample intervals or than five standard errors"
-    else:
-        why = ("the floor height is not known, so the contact height was estimated where the flights meet, "
-               "which assumes an instantaneous contact: give floor_m to measure contact times")
-    return {"resolvable": False, "why": why}
+        return {"resolvable": False, "why": "the contact times are not resolved: shorter than two sample intervals "
+                                            "or than five standard errors, or longer than this kind of ball can have"}
+    prior, prior_se = summary.get("contact_time_prior_s") or (np.nan, np.nan)
+    return {"resolvable": False,
+            "why": ("the floor is not known: the contact height is modelled with contact times tau = tau_1 "
+                    f"(v / 1 m/s)^-beta, tau_1 from the flights and the ball kind's prior ({1e3 * prior:.3g} ± "
+                    f"{1e3 * prior_se:.2g} ms); give floor_m to measure each contact time"),
+            "contact_time_1m_s": estimate(summary.get("contact_time_1m_s_s", np.nan),
+                                          summary.get("contact_time_1m_s_se_s", np.nan), "s"),
+            "exponent": estimate(summary.get("contact_time_exponent", np.nan),
+                                 summary.get("contact_time_exponent_se", np.nan), "1")}
 
 
 def fit_rows(impacts):
-    """Positions (in table order) of the impacts that enter every fit: those with ``in_fit`` true.
+    """Positions (in table order) of the impacts that enter every fit: those with ``in_fit`` true and an e
+    that is a number (a NaN e made the fits fail with "SVD did not converge", losing the recording).
 
     Without an ``in_fit`` column every impact enters; an empty cell counts as true (nothing says to
     leave the impact out), and text (a CSV column with an empty cell is read as text) is true when it
     reads true, 1 or yes.
     """
-    if "in_fit" not in impacts:
-        return np.arange(len(impacts))
-
     def entered(flag):
         if pd.isna(flag):
             return True
         return flag.strip().lower() in ("true", "1", "yes") if isinstance(flag, str) else bool(flag)
 
-    return np.flatnonzero([entered(flag) for flag in impacts["in_fit"]])
+    flagged = [entered(flag) for flag in impacts["in_fit"]] if "in_fit" in impacts else np.ones(len(impacts), bool)
+    return np.flatnonzero(np.asarray(flagged, dtype=bool) & np.isfinite(impacts["e"].to_numpy(dtype=float)))
 
 
 def _excluded_impacts(impacts, used):

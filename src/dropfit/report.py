@@ -535,7 +535,10 @@ def _section_theory(fit):
 def _section_contact(fit, impacts):
     contact = fit["contact_time"]
     if not contact["resolvable"]:
-        return f"<p>Not resolvable: {_text(contact.get('why'))}.</p>"
+        modelled = contact.get("contact_time_1m_s")
+        model = (f"<p>Contact time at 1 m/s from the flights alone: {escape(_estimate(modelled, 's'))}; "
+                 f"exponent β = {escape(_estimate(contact.get('exponent')))}.</p>") if modelled else ""
+        return f"<p>Not resolvable: {_text(contact.get('why'))}.</p>" + model
     resolved = impacts[impacts["contact_resolvable"].astype(bool)]
     rows = [[(_text(row.impact), True), (escape(format_pm(row.t_contact_ms, row.t_contact_se_ms)), True)]
             for row in resolved.itertuples(index=False)]
@@ -589,6 +592,22 @@ def _section_impacts(impacts):
                    "flight-time ratio (1)", "h_after ± se (m)"], rows)
 
 
+def _section_notes(fit):
+    """The samples left out (the hand's, tracking jumps, outliers of the fit) and every note of the analysis."""
+    data = fit.get("data") or {}
+    counts = _definitions([
+        ("Held or moved by hand", f"{_text(data.get('hand_samples'))} samples, until the release at "
+                                  f"{_num(data.get('release_time_s'), '.4f')} s"),
+        ("Tracking jumps", f"{_text(data.get('tracking_jump_samples'))} samples left out"),
+        ("Outliers of the flight fit", f"{_text(data.get('residual_outlier_samples'))} samples left out"),
+        ("Noise", f"{_num(1e3 * data['noise_m'] if data.get('noise_m') is not None else None, '.3g')} mm"),
+    ])
+    notes = fit.get("notes") or []
+    listed = "<ul>" + "".join(f"<li>{escape(str(note))}</li>" for note in notes) + "</ul>" if notes else \
+        "<p>No notes: every sample after the release entered the fits.</p>"
+    return counts + "\n" + listed
+
+
 def recording_report_html(trajectory, flights, impacts, fit, png):
     """The self-contained per-recording HTML report.
 
@@ -617,6 +636,7 @@ def recording_report_html(trajectory, flights, impacts, fit, png):
         ("Drag", _section_drag(fit)),
         ("Theory checks", _section_theory(fit)),
         ("Contact time", _section_contact(fit, impacts)),
+        ("Data used and notes", _section_notes(fit)),
         ("Impacts table", _section_impacts(impacts)),
         ("Figure", _png_img(png, f"dropfit figure for {sample_id}")),
     ]

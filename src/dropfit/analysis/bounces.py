@@ -32,7 +32,7 @@ from .impacts import (IMPACT_COLUMNS, ImpactQuantities, contact_resolvable, quan
                       unpack_quantities)
 from .segmentation import IMPACT_DEPTH_IN_NOISE, RELEASE_SIGMAS, check_free_fall, flight_bounds, segment
 from .tables import add_with_interval, se_column_name
-from .uncertainty import quantity_covariance
+from .uncertainty import quantity_covariance, refit_response, refit_sensitivity
 
 #: Number of passes of "assign samples to flights, fit, locate the contacts".
 REFINEMENT_PASSES = 3
@@ -172,7 +172,7 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
                contact_prior[1][0])
     keep = np.ones(problem.t.size, dtype=bool)
     while True:
-        fit, bics, held_k_se = fit_with_drag_choice(problem.subset(keep), bounds, drag, held_k,
+        fit, bics, held_drag = fit_with_drag_choice(problem.subset(keep), bounds, drag, held_k,
                                                     float(nominal_drag_relative_se), source)
         earlier_release = release_extension(fit, problem)
         if earlier_release is not None and earlier_release < problem.release_time:
@@ -198,6 +198,7 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
         notes.append(f"impact {unresolved + 1}: its rebound rises less than {HOP_RESOLUTION_IN_NOISE:g} noise standard "
                      f"deviations above the contact height, below the resolution; the bounce sequence ends before it")
         bounds = fit.bounds[: unresolved + 1]
+    # the free fall starts where flight 0 does (at its apex when the ball left the hand at rest)
     release_time = float(fit.bounds[0][0]) + origin
     notes = [note for note in notes if not note.startswith("the ball was held")]
     hand = int(np.count_nonzero(segmentation.time + origin < release_time - 1e-6))
@@ -217,11 +218,12 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
         notes.append(f"{left_out} samples left out as outliers of the flight fit (more than "
                      f"{RESIDUAL_OUTLIER_SIGMAS:g} noise standard deviations off)")
     kinds = {"longest_s": longest[0], "exponent": longest[1], "radius_m": ball_radius_m}
-    uncertainty = {"held_k_se": held_k_se, "scale_rel_se": scale_rel_se, "contact_height_se_m": contact_height_se_m,
+    uncertainty = {**held_drag, "scale_rel_se": scale_rel_se, "contact_height_se_m": contact_height_se_m,
                    "noise_correlation": noise_correlation, "gravity_se_m_s2": float(gravity_se_m_s2),
                    "gravity_scaled": bool(gravity_scaled), "extra_parts": extra_parts}
-    return _assemble(fit, bics, problem.subset(keep), origin, source, uncertainty, segmentation, left_out, notes,
-                     kinds)
+    data = {"release_time_s": release_time, "hand_samples": hand, "tracking_jump_samples": int(segmentation.outliers.size),
+            "residual_outlier_samples": int(left_out)}
+    return _assemble(fit, bics, problem.subset(keep), origin, source, uncertainty, data, notes, kinds)
 
 
 @dataclass
@@ -302,9 +304,11 @@ def fit_with_drag_choice(problem, bounds, drag, held_k, held_k_relative_se, sour
 
     Returns
     -------
-    (FlightFit, dict, float)
-        The chosen fit, the BIC of each model tried (key: whether k was free) and the se of a held k (1/m;
-        the fit's model holds k itself).
+    (FlightFit, dict, dict)
+        The chosen fit, the BIC of each model tried (key: whether k was free) and the held k's
+        uncertainty (the fit's model holds k itself): ``held_k_se`` (1/m) and ``held_k_slopes``, the
+        derivatives of a k combined with the free fit's by g (1/m per m/s²) and by the relative length
+        scale (1/m), through the free fit.
     """
     t, y, g = problem.t, problem.y, problem.g
     starts = []
@@ -313,7 +317,7 @@ def fit_with_drag_choice(problem, bounds, drag, held_k, held_k_relative_se, sour
         starts.extend(parabola_start(t[inside], y[inside], g))
     with_drag = drag != "off"
     theta0 = np.append(starts, 1e-3) if with_drag else np.asarray(starts)
-    held_k_se = held_k_relative_se * held_k
+    held_drag = {"held_k_se": held_k_relative_se * held_k, "held_k_slopes": {}}
     fit = refine(problem, bounds, with_drag, theta0, held_k)
     if fit is None:
         raise InputError(f"{source}: the flights could not be fitted (too few samples between bounces)")
@@ -324,12 +328,17 @@ def fit_with_drag_choice(problem, bounds, drag, held_k, held_k_relative_se, sour
         bics[False] = bic(rival[1])
         if bics[False] <= bics[True]:
             if held_k > 0:
-                held_k, held_k_se = combine_with_prior(fit.result, held_k, held_k_se)
+                held_k, held_drag["held_k_se"], weight = combine_with_prior(fit.result, held_k,
+                                                                            held_drag["held_k_se"])
+                free = fit.model
+                held_drag["held_k_slopes"] = {
+                    "gravity": weight * refit_sensitivity(fit.result, free, free, "g", 1e-4)[-1],
+                    "scale": weight * refit_response(fit.result, -free.y)[-1]}
             held = refine(problem, fit.bounds, False, rival[1].x, held_k)
             if held is not None:  # the sequence it refits was cut by the first fit: keep saying so
                 held.misfit_cut = held.misfit_cut if held.misfit_cut is not None else fit.misfit_cut
                 fit = held
-    return fit, bics, held_k_se
+    return fit, bics, held_drag
 
 
 #: A sample whose flight-fit residual exceeds this many noise standard deviations is an outlier.
@@ -515,10 +524,11 @@ def impact_notes(e):
     return in_fit, note
 
 
-def _assemble(fit, bics, problem, origin, source, uncertainty, segmentation, residual_outliers_left_out, notes, ball):
+def _assemble(fit, bics, problem, origin, source, uncertainty, data, notes, ball):
     """The flights and impacts tables, covariances and summary of the final fit (times shifted back by
-    ``origin``, s); ``uncertainty``: the keyword arguments of :func:`quantity_covariance`; ``ball``: the
-    longest contact time at 1 m/s (s), its exponent and the ball's radius (m)."""
+    ``origin``, s); ``uncertainty``: the keyword arguments of :func:`quantity_covariance`; ``data``: the
+    release time (s) and the samples left out; ``ball``: the longest contact time at 1 m/s (s), its
+    exponent and the ball's radius (m)."""
     model, result, counts, quantities, bounds = fit.model, fit.result, fit.counts, fit.quantities, fit.bounds
     theta = result.x
     parts = quantity_covariance(model, result, quantities, **uncertainty)
@@ -596,10 +606,7 @@ def _assemble(fit, bics, problem, origin, source, uncertainty, segmentation, res
         "noise_m": float(problem.noise),
         "residual_rms_m": float(np.sqrt(np.mean(result.fun**2))),
         "sample_interval_s": sample_interval,
-        "release_time_s": problem.release_time + origin,
-        "hand_samples": int(segmentation.hand_samples),
-        "tracking_jump_samples": int(segmentation.outliers.size),
-        "residual_outlier_samples": int(residual_outliers_left_out),
+        **data,
         "drop_apex_time_s": float(t_apex[0]) + origin,
         "drop_height_m": float(values["apex_height_m"][0]),
         "drop_height_se_m": float(errors["apex_height_m"][0]),

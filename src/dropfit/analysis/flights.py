@@ -188,13 +188,20 @@ def first_misfit_flight(model, result, noise):
 
 def combine_with_prior(result, prior_k, prior_se):
     """k (1/m) and its se from the free-k fit ``result`` combined with the prior ``prior_k`` ± ``prior_se``
-    by inverse-variance weighting: flights that cannot pin k down on their own still narrow it."""
+    by inverse-variance weighting: flights that cannot pin k down on their own still narrow it.
+
+    Returns
+    -------
+    (float, float, float)
+        k, its se, and the weight of the free fit's k in it (0 … 1): what moves the free k (a held g,
+        the length scale) moves the combined k by that fraction.
+    """
     data_se = float(np.sqrt(max(fit_covariance(result)[-1, -1], 0.0)))
     if not data_se > 0:
-        return prior_k, prior_se
+        return prior_k, prior_se, 0.0
     weights = np.array([1.0 / data_se**2, 1.0 / prior_se**2])
     value = float(weights @ [result.x[-1], prior_k] / weights.sum())
-    return value, float(1.0 / np.sqrt(weights.sum()))
+    return value, float(1.0 / np.sqrt(weights.sum())), float(weights[0] / weights.sum())
 
 
 def shared_acceleration(pieces):

@@ -79,8 +79,6 @@ class Segmentation:
         Downward acceleration of the flights in L/s² (given, or measured from their curvature).
     outliers : numpy.ndarray
         Index (into the input samples) of each sample left out as a tracking jump.
-    hand_samples : int
-        Samples before the release (the ball held or moved by hand), left out.
     notes : list of str
         What was left out and why, in words.
     """
@@ -92,7 +90,6 @@ class Segmentation:
     impacts: np.ndarray
     acceleration: float
     outliers: np.ndarray
-    hand_samples: int
     notes: list = field(default_factory=list)
 
 
@@ -353,7 +350,7 @@ def segment(time_s, height, source="trajectory", acceleration=None):
         notes.append(f"the ball was held or moved by hand before the release: the {release} samples before the "
                      f"free fall are left out")
     return Segmentation(time=t, height=y, noise=noise, release=release, impacts=dips, acceleration=float(acceleration),
-                        outliers=outliers, hand_samples=release, notes=notes)
+                        outliers=outliers, notes=notes)
 
 
 def vertical_sign(time_s, height):

@@ -46,20 +46,32 @@ def held_input_sensitivity(result, quantities, quantity_jacobian, owner, attribu
     step : float
         Step of the central difference, in the input's unit.
     """
+    direct = derivative(lambda moved: _with_input(owner, attribute, moved, quantities, result.x),
+                        _input_value(owner, attribute), step)
+    return direct + quantity_jacobian @ refit_sensitivity(result, quantities.model, owner, attribute, step)
+
+
+def refit_sensitivity(result, model, owner, attribute, step):
+    """Derivative of the fitted θ with respect to a held input (arguments as
+    :func:`held_input_sensitivity`), linearised by least squares."""
+    residual_slope = derivative(lambda moved: _with_input(owner, attribute, moved, model.residuals, result.x),
+                                _input_value(owner, attribute), step)
+    return refit_response(result, residual_slope)
+
+
+def _input_value(owner, attribute):
     value = getattr(owner, attribute)
-    model = quantities.model
+    return value[0] if isinstance(value, tuple) else value
 
-    def at(moved, function):
-        setattr(owner, attribute, (moved, *value[1:]) if isinstance(value, tuple) else moved)
-        try:
-            return function(result.x)
-        finally:
-            setattr(owner, attribute, value)
 
-    start = value[0] if isinstance(value, tuple) else value
-    residual_slope = derivative(lambda moved: at(moved, model.residuals), start, step)
-    direct = derivative(lambda moved: at(moved, quantities), start, step)
-    return direct + quantity_jacobian @ refit_response(result, residual_slope)
+def _with_input(owner, attribute, moved, function, theta):
+    """``function(theta)`` with the held input moved to ``moved`` (a tuple input: its first element)."""
+    value = getattr(owner, attribute)
+    setattr(owner, attribute, (moved, *value[1:]) if isinstance(value, tuple) else moved)
+    try:
+        return function(theta)
+    finally:
+        setattr(owner, attribute, value)
 
 
 def scale_sensitivity(quantities, result, step=1e-6):
@@ -86,8 +98,9 @@ def contact_height_sensitivity(quantities, theta, step_m=1e-6):
     return derivative(lambda value: quantities.with_contact_height(value)(theta), height, step_m)
 
 
-def quantity_covariance(model, result, quantities, held_k_se=0.0, scale_rel_se=0.0, contact_height_se_m=0.0,
-                        noise_correlation=0.0, gravity_se_m_s2=0.0, gravity_scaled=False, extra_parts=None):
+def quantity_covariance(model, result, quantities, held_k_se=0.0, held_k_slopes=None, scale_rel_se=0.0,
+                        contact_height_se_m=0.0, noise_correlation=0.0, gravity_se_m_s2=0.0, gravity_scaled=False,
+                        extra_parts=None):
     """Covariance of the quantity vector of ``quantities`` at the fit ``result``, with its parts.
 
     Parameters
@@ -96,6 +109,10 @@ def quantity_covariance(model, result, quantities, held_k_se=0.0, scale_rel_se=0
         The flight model, its least-squares fit and the impact quantities built on it.
     held_k_se : float
         Standard error (1/m) of a drag parameter the fit holds (``model.fixed_k``).
+    held_k_slopes : dict, optional
+        Derivatives of the held k by g (``gravity``, 1/m per m/s²) and by the relative length scale
+        (``scale``, 1/m), where the held k took in a free fit's k: g and the scale move the quantities
+        through it too.
     scale_rel_se : float
         Relative standard error of the length scale that brought the heights to m.
     contact_height_se_m : float
@@ -125,17 +142,27 @@ def quantity_covariance(model, result, quantities, held_k_se=0.0, scale_rel_se=0
     cov = propagate(jac, cov_theta)
     parts = dict(extra_parts or {})
     if model.with_drag:
-        k_variance = float(cov_theta[-1, -1])
+        # a fitted k also carries what g and the length scale leave uncertain (k is per metre)
+        k_shares = [theta[-1] * scale_rel_se]
+        if gravity_se_m_s2 > 0:
+            k_shares.append(theta[-1] * gravity_se_m_s2 / model.g if gravity_scaled else
+                            gravity_se_m_s2 * refit_sensitivity(result, model, model, "g", 1e-4)[-1])
+        k_variance = float(cov_theta[-1, -1] + np.sum(np.square(k_shares)))
         drag_covariance = jac @ cov_theta[:, -1]
+        k_sensitivity = np.zeros(vector.size)
     else:
-        k_variance = held_k_se**2
-        sensitivity = held_input_sensitivity(result, quantities, jac, model, "fixed_k", 1e-3 * model.fixed_k) \
+        # a held k that took in a free fit's k moves with g and the scale as that did
+        k_variance = held_k_se**2 + (gravity_se_m_s2 * (held_k_slopes or {}).get("gravity", 0.0))**2 \
+            + (scale_rel_se * (held_k_slopes or {}).get("scale", 0.0))**2
+        k_sensitivity = held_input_sensitivity(result, quantities, jac, model, "fixed_k", 1e-3 * model.fixed_k) \
             if model.fixed_k > 0 else np.zeros(vector.size)
-        parts["drag"] = held_k_se * sensitivity
-        drag_covariance = k_variance * sensitivity
+        parts["drag"] = held_k_se * k_sensitivity
+        drag_covariance = k_variance * k_sensitivity
+    slopes = held_k_slopes or {}
     if gravity_se_m_s2 > 0:
         parts["gravity"] = (gravity_se_m_s2 / model.g) * vector * length_dimension(quantities.n_impacts) \
-            if gravity_scaled else gravity_se_m_s2 * held_input_sensitivity(result, quantities, jac, model, "g", 1e-4)
+            if gravity_scaled else gravity_se_m_s2 * (held_input_sensitivity(result, quantities, jac, model, "g", 1e-4)
+                                                      + slopes.get("gravity", 0.0) * k_sensitivity)
     if quantities.given_contact_height is None:
         prior, prior_se = quantities.contact_time_prior
         if prior_se > 0:
@@ -148,7 +175,8 @@ def quantity_covariance(model, result, quantities, held_k_se=0.0, scale_rel_se=0
     elif contact_height_se_m > 0:
         parts["contact_height"] = contact_height_se_m * contact_height_sensitivity(quantities, theta)
     # the length scale's error moves every quantity together: a rank-one term in their covariance
-    scale_part = scale_rel_se * np.nan_to_num(scale_sensitivity(quantities, result)) if scale_rel_se \
+    scale_part = scale_rel_se * np.nan_to_num(scale_sensitivity(quantities, result)
+                                              + slopes.get("scale", 0.0) * k_sensitivity) if scale_rel_se \
         else np.zeros(vector.size)
     for part in [*parts.values(), scale_part]:
         part = np.nan_to_num(part)
