@@ -95,3 +95,16 @@ def test_an_impact_whose_e_is_not_a_number_enters_no_fit(contact_recording):
     assert fitted["restitution"]["n_impacts"] == len(old) - 1
     assert np.isfinite(fitted["restitution"]["e"]["value"])
     assert list(fit_rows(old)) == list(range(len(old) - 1))
+
+
+def test_a_note_with_commas_reads_back_whole(tmp_path):
+    """An impact's note holds commas ("a hand, a tracking error or a missed impact"): the table written
+    by the analysis reads back with it as one field (it was taken for a damaged row, losing the fit)."""
+    from dropfit.files import read_table, write_table
+
+    table = pd.DataFrame({"e": [0.8, 1.02], "in_fit": [True, False],
+                          "note": ["", "e > 1: a hand, a tracking error or a missed impact; left out"]})
+    write_table(tmp_path / "impacts.csv", table)
+    back = read_table(tmp_path / "impacts.csv")
+    assert back["note"].iloc[1] == table["note"].iloc[1]
+    assert list(fit_rows(back)) == [0]

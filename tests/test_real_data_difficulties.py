@@ -81,6 +81,30 @@ def test_tracking_jumps_are_left_out_and_counted():
     assert np.all(np.abs(z[:4]) < Z_LIMIT)
 
 
+def test_the_report_counts_the_hand_and_the_jumps(tmp_path):
+    """A px table as a tracker writes it (a hand, tracker jumps), through ``dropfit run``: fit.json and the
+    report's "Data used and notes" give the samples left out as the hand's and as jumps."""
+    from refsim.record import write_csv
+
+    from dropfit.settings import Ball
+    from dropfit.stages import run
+
+    truth = refsim.simulate("marble_paper", drop_height_m=0.4, g_m_s2=G,
+                            hand=HandPhase(kind="hold", duration_s=0.5, seed=5), t_end_s=2.5)
+    log, info = record(truth, 200.0, unit="px", px_per_m=1200.0, floor_row_px=900.0, noise_sd=0.7,
+                       jumps=Jumps(n=5, length=(1, 6), size=(130.0, 150.0)), rng=11, return_info=True)
+    write_csv(log, tmp_path / "marble.csv")
+    result = run(tmp_path / "marble.csv", tmp_path / "out", Ball(radius_m=truth.radius_m, mass_kg=truth.mass_kg,
+                                                                 type="marble"))
+    data = result.fit["data"]
+    assert data["hand_samples"] >= 0.5 * 200 * 0.9  # most of the 0.5 s held at 200 Hz
+    assert data["tracking_jump_samples"] + data["residual_outlier_samples"] >= np.count_nonzero(info.is_jump[info.kept])
+    page = (tmp_path / "out" / "report.html").read_text(encoding="utf-8")
+    assert "Data used and notes" in page
+    assert f"{data['tracking_jump_samples']} samples left out" in page
+    assert f"{data['hand_samples']} samples, until the release" in page
+
+
 def test_micro_hops_at_the_end_keep_the_measurable_impacts():
     """A marble comes to rest through dozens of hops too small to resolve (62 impacts in the truth):
     every impact whose flights are resolved is reported, the sequence ends with a note, no e is NaN

@@ -32,6 +32,15 @@ TRIALS = {
 }
 #: A cell with fewer pairs than this fails: its coverage would be too noisy to test against the band.
 MIN_PAIRS = 540
+#: Cells whose error is one offset shared by every recording, so that their intervals cover the truth
+#: either nearly always or nearly never: the 98 % bound, a test of statistical calibration, does not
+#: apply; the offset must lie within the budget (|mean z| below SHARED_OFFSET_MAX_Z). A tennis ball
+#: logged at 1–2 kHz to 0.05–0.2 mm with the floor unknown: the contact height then rests on the
+#: shape of the contact-time law (dropfit.analysis.impacts.CONTACT_TIME_CURVATURE_SE), the same
+#: Hertz–Kuwabara–Kono law in every recording (measured: coverage 99–100 %, mean z 0.73–0.85,
+#: sd of z 0.22–0.51; without the law's share, 7–51 % at mean z 2.1–5.0).
+SHARED_OFFSET_CELLS = {("tennis_bottom_1_2khz", "unknown")}
+SHARED_OFFSET_MAX_Z = 1.0
 #: At most this fraction of the recordings of a scenario may be refused (each refusal names its reason).
 MAX_FAILED_FRACTION = 0.05
 
@@ -70,7 +79,12 @@ def test_refsim_intervals_cover_the_truth(refsim_trials_run, name):
     expected = {(floor, quantity) for floor in rt.FLOOR_CONDITIONS for quantity in rt.ASSERTED_QUANTITIES}
     assert set(zip(cells["floor"], cells["quantity"])) == expected, \
         f"{name}: cells without a single pair: {expected - set(zip(cells['floor'], cells['quantity']))}"
-    bad = cells[(cells["n"] < MIN_PAIRS) | (cells["coverage"] < COVERAGE_MIN) | (cells["coverage"] > COVERAGE_MAX)]
+    upper = cells["coverage"] > COVERAGE_MAX
+    if (name, "unknown") in SHARED_OFFSET_CELLS:
+        # a shared offset within its budget: covered, and its mean z well inside ±1
+        shared = cells["floor"] == "unknown"
+        upper = upper & ~(shared & (cells["mean_z"].abs() < SHARED_OFFSET_MAX_Z))
+    bad = cells[(cells["n"] < MIN_PAIRS) | (cells["coverage"] < COVERAGE_MIN) | upper]
     assert bad.empty, (f"{name}: cells outside {COVERAGE_MIN:.0%}–{COVERAGE_MAX:.0%} (or with fewer than {MIN_PAIRS} "
                        f"pairs):\n{bad.to_string(index=False, float_format=lambda x: f'{x:.4g}')}")
 

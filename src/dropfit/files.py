@@ -9,6 +9,7 @@ batch summary lists the recording with the original one-line message.
 from __future__ import annotations
 
 import contextlib
+import csv
 import hashlib
 import json
 import os
@@ -216,10 +217,12 @@ def read_table(path, what="CSV table written by dropfit analyse"):
         raise InputError(f"{name}: is a JSON file, not a CSV table; give the {what}")
     if not text.endswith(("\n", "\r")):  # dropfit ends every table with a line break
         raise InputError(f"{name}: is truncated (its last line is cut short); run the stage that writes it again")
-    width = lines[0].count(",") + 1
-    for number, line in enumerate(lines[1:], start=1):
-        if line.count(",") + 1 != width:
-            raise InputError(f"{name}: row {number} has {line.count(',') + 1} fields but the header has {width}: the "
+    # fields as the csv module splits them: a quoted note may hold commas
+    rows = csv.reader(lines)
+    width = len(next(rows))
+    for number, fields in enumerate(rows, start=1):
+        if len(fields) != width:
+            raise InputError(f"{name}: row {number} has {len(fields)} fields but the header has {width}: the "
                              f"file is damaged; run the stage that writes it again")
     # pandas ≥ 3 reads floats back exactly by default; older ones need the round-trip parser
     exact = {} if int(pd.__version__.split(".")[0]) >= 3 else {"float_precision": "round_trip"}

@@ -18,6 +18,13 @@ from .flights import fit_covariance
 
 #: Gauss–Newton steps of the contact height and contact time (converges in two or three).
 CONTACT_MODEL_ITERATIONS = 6
+#: Standard error of γ in τ = τ₁ v^(−β) exp(γ ln² v), held at 0: how far a real contact's times bend
+#: from a power law of the speed. The Hunt–Crossley contact (dropfit.contact) gives γ ≈ 0.12 χ over
+#: 0.8–7.5 m/s: 0.002–0.008 for its damping χ = 0.02–0.06 s/m (e ≥ 0.75 at 5 m/s, tennis or steel
+#: balls), 0.04 at χ = 0.3 s/m. With the floor not known, precise flights pin the contact height
+#: only as well as the law's shape is known; without this share a tennis ball's heights logged at
+#: 1–2 kHz to 0.1 mm read 65 µm high at 5 standard errors.
+CONTACT_TIME_CURVATURE_SE = 0.005
 
 #: Per-impact quantities, in the order of the vector :class:`ImpactQuantities` returns.
 IMPACT_COLUMNS = ["t_touchdown_s", "t_liftoff_s", "v_in_m_s", "v_out_m_s", "e", "e_height", "flight_time_ratio",
@@ -75,6 +82,7 @@ class ImpactQuantities:
         self.given_contact_height = contact_height_m
         self.contact_time_prior = tuple(float(value) for value in contact_time_prior)
         self.contact_exponent = tuple(float(value) for value in contact_exponent)
+        self.contact_curvature = (0.0, CONTACT_TIME_CURVATURE_SE)  # γ held, with its se
         self.weights = np.ones(self.n_impacts)
         self._meetings = {}  # (y_apex, t_apex before, after, k, g) → meeting height, m
 
@@ -114,7 +122,7 @@ class ImpactQuantities:
         """Contact height c (m), contact time at 1 m/s τ₁ (s) and exponent β that fit the flights and
         the priors.
 
-        Gauss–Newton on τ_n(c) = τ₁ v_n^(−β): each step linearises the gap between the flights at c and
+        Gauss–Newton on τ_n(c) = τ₁ v_n^(−β) exp(γ ln² v_n) (γ held, ``contact_curvature``): each step linearises the gap between the flights at c and
         the law in β, and solves the weighted least squares for (Δc, τ₁, Δβ) with each prior as one
         more observation (a prior with standard error 0 holds its parameter).
         """
@@ -126,7 +134,7 @@ class ImpactQuantities:
             use = np.isfinite(gap) & np.isfinite(slope) & (speed > 0) & (self.weights > 0)
             if not use.any():
                 break
-            law = speed[use] ** (-beta)
+            law = speed[use] ** (-beta) * np.exp(self.contact_curvature[0] * np.log(speed[use]) ** 2)
             # gap + slope Δc − law τ₁ + τ₁ law ln v Δβ = 0 at every impact
             design = np.column_stack([slope[use], -law, tau * law * np.log(speed[use])])
             normal = design.T @ (self.weights[use, None] * design)

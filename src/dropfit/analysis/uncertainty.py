@@ -172,6 +172,10 @@ def quantity_covariance(model, result, quantities, held_k_se=0.0, held_k_slopes=
         if exponent_se > 0:
             parts["contact_time_exponent"] = exponent_se * held_input_sensitivity(
                 result, quantities, jac, quantities, "contact_exponent", 1e-2 * exponent_se)
+        curvature_se = quantities.contact_curvature[1]
+        if curvature_se > 0:  # the law's shape: a real contact's times are no exact power law
+            parts["contact_time_curvature"] = curvature_se * held_input_sensitivity(
+                result, quantities, jac, quantities, "contact_curvature", 1e-2 * curvature_se)
     elif contact_height_se_m > 0:
         parts["contact_height"] = contact_height_se_m * contact_height_sensitivity(quantities, theta)
     # the length scale's error moves every quantity together: a rank-one term in their covariance
