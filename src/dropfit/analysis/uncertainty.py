@@ -141,6 +141,7 @@ def quantity_covariance(model, result, quantities, held_k_se=0.0, held_k_slopes=
     jac = jacobian(quantities, theta, model.lower_bounds(theta.size))
     cov = propagate(jac, cov_theta)
     parts = dict(extra_parts or {})
+    slopes = held_k_slopes or {}
     if model.with_drag:
         # a fitted k also carries what g and the length scale leave uncertain (k is per metre)
         k_shares = [theta[-1] * scale_rel_se]
@@ -152,13 +153,12 @@ def quantity_covariance(model, result, quantities, held_k_se=0.0, held_k_slopes=
         k_sensitivity = np.zeros(vector.size)
     else:
         # a held k that took in a free fit's k moves with g and the scale as that did
-        k_variance = held_k_se**2 + (gravity_se_m_s2 * (held_k_slopes or {}).get("gravity", 0.0))**2 \
-            + (scale_rel_se * (held_k_slopes or {}).get("scale", 0.0))**2
+        k_variance = held_k_se**2 + (gravity_se_m_s2 * slopes.get("gravity", 0.0))**2 \
+            + (scale_rel_se * slopes.get("scale", 0.0))**2
         k_sensitivity = held_input_sensitivity(result, quantities, jac, model, "fixed_k", 1e-3 * model.fixed_k) \
             if model.fixed_k > 0 else np.zeros(vector.size)
         parts["drag"] = held_k_se * k_sensitivity
         drag_covariance = k_variance * k_sensitivity
-    slopes = held_k_slopes or {}
     if gravity_se_m_s2 > 0:
         parts["gravity"] = (gravity_se_m_s2 / model.g) * vector * length_dimension(quantities.n_impacts) \
             if gravity_scaled else gravity_se_m_s2 * (held_input_sensitivity(result, quantities, jac, model, "g", 1e-4)
