@@ -12,7 +12,7 @@ In one process, every pass runs each method below over the same file, each doing
 (``cv2.VideoCapture`` read loop, as dropfit does):
 
 * ``decode only``      — read every frame and do nothing else: the floor no tracker can beat.
-* ``dropfit``          — :func:`dropfit.tracking.track_video` with its defaults (no radius hint;
+* ``dropfit``          — :func:`dropfit.video.track.track_video` with its defaults (no radius hint;
   it decodes in a second thread and estimates the background from 11 frames reached by seeking).
 * ``cv2.HoughCircles`` — per frame: grey, ``medianBlur`` (5 px), ``HoughCircles`` (``HOUGH_GRADIENT``,
   dp 1, minDist 12 px, param1 100, param2 15, radii 6–11 px around the known 8.4 px); the circle
@@ -73,7 +73,7 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
 from dropfit.synth import simulate_drop  # noqa: E402
-from dropfit.tracking import track_video  # noqa: E402
+from dropfit.video.track import track_video  # noqa: E402
 from dropfit.video_synth import default_clips, render_video  # noqa: E402
 
 HERE = Path(__file__).resolve().parent
@@ -129,7 +129,7 @@ def decode_only(path, **_):
 
 
 def dropfit_track(path, **_):
-    """dropfit.tracking.track_video with its defaults."""
+    """dropfit.video.track.track_video with its defaults."""
     table = track_video(path)
     return table["x_px"].to_numpy(float), table["y_px"].to_numpy(float)
 

@@ -15,7 +15,7 @@ fall and three bounces. The factors:
 * ``radius``       — ball radius 1 … 30 px (the ball's size changes, the scale stays).
 
 Each point is run with several seeds (sensor noise and drop height). Per clip, every frame is
-tracked with :func:`dropfit.tracking.track_video`, then the clip goes through the workflow's own
+tracked with :func:`dropfit.video.track.track_video`, then the clip goes through the workflow's own
 stages (:func:`dropfit.stages.measure` with the ball's radius, then :func:`dropfit.stages.analyse`),
 exactly as ``snakemake`` runs them. Measured per clip:
 
@@ -27,11 +27,11 @@ exactly as ``snakemake`` runs them. Measured per clip:
 * ``frames_lost_fraction`` — fraction of the frames with the ball in view that are not clean, or
   off by more than 3 px: they do not enter the trajectory;
 * ``refused`` and ``refusal`` — whether dropfit refused the clip (any :class:`dropfit.errors.InputError`,
-  from the tracker, the limits of :mod:`dropfit.video_limits` or the analysis) and its message;
-* the quantities :mod:`dropfit.video_limits` measures on the recording itself (tracked radius,
+  from the tracker, the limits of :mod:`dropfit.video.limits` or the analysis) and its message;
+* the quantities :mod:`dropfit.video.limits` measures on the recording itself (tracked radius,
   clean-frame fraction, centre noise, samples per flight).
 
-Where dropfit refused a clip for one of the limits of :mod:`dropfit.video_limits` (the message says
+Where dropfit refused a clip for one of the limits of :mod:`dropfit.video.limits` (the message says
 "not analysable"), the clip is analysed again with those limits switched off, and the e columns hold
 what dropfit would have returned: the evidence that the refusal was right (``e_unguarded`` = 1).
 
@@ -80,7 +80,7 @@ from dropfit import Ball, stages, video_limits  # noqa: E402
 from dropfit.contact import LinearContact  # noqa: E402
 from dropfit.errors import InputError  # noqa: E402
 from dropfit.synth import simulate_drop  # noqa: E402
-from dropfit.tracking import CLEAN_QUALITIES, track_video  # noqa: E402
+from dropfit.video.track import CLEAN_QUALITIES, track_video  # noqa: E402
 from dropfit.video_synth import Camera, Scene, render_video  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))

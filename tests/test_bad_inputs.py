@@ -34,7 +34,7 @@ import xarray as xr
 
 from dropfit.cli import main
 from dropfit.errors import shown_path
-from dropfit.opencv import cv2
+from dropfit.video.opencv import cv2
 from dropfit.synth import sample_height_log, simulate_drop
 
 from helpers import CALL_TIMEOUT_S, dropfit

@@ -5,7 +5,7 @@ import cv2
 import numpy as np
 import pytest
 
-from dropfit.calibration import (CAPTURE_RATE_SNAP_TOLERANCE, COMMON_CAPTURE_RATES_FPS, SCALE_PRECEDENCE,
+from dropfit.video.calibrate import (CAPTURE_RATE_SNAP_TOLERANCE, COMMON_CAPTURE_RATES_FPS, SCALE_PRECEDENCE,
                                  choose_scale, infer_capture_rate, ruler_scale)
 from dropfit.physics import STANDARD_GRAVITY_M_S2
 from dropfit.synth import simulate_drop

@@ -24,7 +24,7 @@ from dropfit.physics import (NORMAL_GRAVITY_SE_M_S2, STANDARD_GRAVITY_M_S2, UNKN
 from dropfit.result import REPORT_SECTIONS
 from dropfit.settings import (OPTIONS, Ball, OptionError, Settings, settings_from_config, split_options,
                               stage_arguments, workflow_values)
-from dropfit.tracking import TRACKED_CENTRE_CORRELATION
+from dropfit.video.track import TRACKED_CENTRE_CORRELATION
 
 from helpers import (DROP_BALL, DROP_FLOOR_M, RECORDING_FILES, assert_nothing_written, assert_one_line_error,
                      fit_numbers, option_arguments, write_bad_log, write_drop_log)

@@ -9,7 +9,7 @@ import pytest
 
 from dropfit.errors import InputError
 from dropfit.synth import simulate_drop
-from dropfit.tracking import (QUALITY_BLURRED, QUALITY_DUPLICATE, QUALITY_LOST, QUALITY_OCCLUDED, QUALITY_OK, QUALITY_PARTIAL,
+from dropfit.video.track import (QUALITY_BLURRED, QUALITY_DUPLICATE, QUALITY_LOST, QUALITY_OCCLUDED, QUALITY_OK, QUALITY_PARTIAL,
                               TRACKED_CENTRE_CORRELATION, track_frames, track_video, usable_rows)
 from dropfit.video_synth import Camera, FrameRenderer, Scene, default_clips
 

@@ -4,7 +4,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from dropfit import Ball, stages, video_limits
+from dropfit import Ball, stages
+from dropfit.video import limits as video_limits
 from dropfit.analysis import analyse_bounces
 from dropfit.contact import LinearContact
 from dropfit.errors import InputError
@@ -28,7 +29,7 @@ def drop():
 
 
 def tracked_table(truth, fps, duration_s=1.7, radius_px=5.0, noise_px=0.02, clean_every=1, seed=0):
-    """A tracked table as :func:`dropfit.tracking.track_video` returns it, from the truth (rows down, px).
+    """A tracked table as :func:`dropfit.video.track.track_video` returns it, from the truth (rows down, px).
 
     Every ``clean_every``-th frame is ``ok``; the others are ``lost`` (NaN).
     """
@@ -43,7 +44,7 @@ def tracked_table(truth, fps, duration_s=1.7, radius_px=5.0, noise_px=0.02, clea
 
 def refusal_of(tmp_path, monkeypatch, table):
     """The one-line message with which trajectory_from_video refuses ``table`` as a tracked video."""
-    monkeypatch.setattr("dropfit.tracking.track_video", lambda path, capture_fps=None: table)
+    monkeypatch.setattr("dropfit.video.track.track_video", lambda path, capture_fps=None: table)
     with pytest.raises(InputError) as caught:
         trajectory_from_video(tmp_path / "clip.avi", ball_radius_m=BALL_RADIUS_M)
     return str(caught.value)

@@ -21,7 +21,8 @@ import os
 
 import numpy as np
 
-from . import __version__, video_limits
+from . import __version__
+from .video import limits as video_limits
 from .analysis import analyse_bounces
 from .balls import ball_kind
 from .errors import InputError, shown_path
@@ -30,7 +31,7 @@ from .fitrecord import analysis_summary, fit_summary, plain
 from .heightlog import nominal_drag_of, trajectory_from_log
 from .result import RecordingResult
 from .settings import Ball, Settings, split_options
-from .tracking import TRACKED_CENTRE_CORRELATION
+from .video.track import TRACKED_CENTRE_CORRELATION
 from .videolog import is_video, trajectory_from_video
 
 #: Settings that apply to measuring a recording, not to an already measured trajectory.
@@ -111,7 +112,7 @@ def analysis_options(attrs, settings=None, sample_interval_s=0.0):
         frames are exposed around their time; else 0), ``nominal_drag_k_per_m`` and
         ``nominal_drag_relative_se`` (a smooth ball of the kind's C_d, size and mass, 1/m; 0 when the
         size or mass is unknown), ``noise_correlation``
-        (:data:`dropfit.tracking.TRACKED_CENTRE_CORRELATION` for a video, else 0), and the ball kind's
+        (:data:`dropfit.video.track.TRACKED_CENTRE_CORRELATION` for a video, else 0), and the ball kind's
         contact-time prior, exponent and longest contact time (:mod:`dropfit.balls`) with the radius.
     """
     settings = settings or Settings()
@@ -164,7 +165,7 @@ def analyse_trajectory(trajectory, settings=None, source=None):
     dropfit.analysis.BounceAnalysis
         The analysis of :func:`dropfit.analysis.analyse_bounces` with :func:`analysis_options`; a
         video's impacts whose flights are too briefly filmed are dropped
-        (:func:`dropfit.video_limits.select_resolved_impacts`). Its summary also holds the options
+        (:func:`dropfit.video.limits.select_resolved_impacts`). Its summary also holds the options
         (``analysis_options``, JSON-ready, without ``source``) and the g used (``gravity``: value, se,
         unit, source, note).
     """

@@ -354,7 +354,7 @@ def _video_frame_html(trajectory):
     attrs = trajectory.attrs
     if "video" not in attrs or "x" not in trajectory:
         return ""
-    from .opencv import cv2, decoder_output_silenced
+    from .video.opencv import cv2, decoder_output_silenced
 
     scale = float(attrs["scale_m_per_px"])
     tracked = np.flatnonzero(np.isfinite(trajectory["y"].values))

@@ -33,7 +33,7 @@ import os
 from dataclasses import asdict, dataclass
 from pathlib import Path
 
-from .opencv import cv2
+from .video.opencv import cv2
 import numpy as np
 import pandas as pd
 from scipy.special import ndtri

@@ -1,11 +1,11 @@
 """Videos: track the ball and calibrate pixels to metres and frames to seconds, giving the same
 trajectory as a height log.
 
-Scales come from up to four sources (:mod:`dropfit.calibration`): a given scale, a ruler's ticks
+Scales come from up to four sources (:mod:`dropfit.video.calibrate`): a given scale, a ruler's ticks
 in the background (with ``ruler_tick_m``), gravity (the flights' shared acceleration in px/s²,
 quadratic drag included, over g) and the ball's known diameter (its tracked radius in px against
 its radius in m). The one used is the first available in the precedence given > ruler > gravity >
-diameter (an order by accuracy: see :mod:`dropfit.calibration`); every other one is stored with its
+diameter (an order by accuracy: see :mod:`dropfit.video.calibrate`); every other one is stored with its
 disagreement relative to it. The chosen scale's relative standard error (``scale_rel_se``; 0 for a
 given scale) goes with the trajectory, and the analysis adds its effect on every impact quantity
 (heights, and through the fitted drag also e, flight times and their ratios) to their covariance.
@@ -19,8 +19,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import video_limits
-from .calibration import SCALE_PRECEDENCE, choose_scale, infer_capture_rate, ruler_scale
+from .video import limits as video_limits
+from .video.calibrate import SCALE_PRECEDENCE, choose_scale, infer_capture_rate, ruler_scale
 from .errors import InputError, shown_path
 from .heightlog import check_floor, flight_acceleration, make_trajectory, nominal_drag_of, scale_from_gravity
 from .numerics import robust_sigma
@@ -69,8 +69,8 @@ def video_background(path, samples=7):
     numpy.ndarray or None
         Grey levels (height, width), or None if no frame could be read.
     """
-    from .opencv import cv2, decoder_output_silenced
-    from .tracking import estimate_background, video_samples
+    from .video.opencv import cv2, decoder_output_silenced
+    from .video.track import estimate_background, video_samples
 
     with decoder_output_silenced():
         capture = cv2.VideoCapture(str(path))
@@ -141,7 +141,7 @@ def trajectory_from_video(path, ball_radius_m=None, scale_m_per_px=None, capture
         others' ``scale_disagreement_<source>`` (s / s_chosen − 1), and the time base
         (``capture_fps``, ``capture_fps_source``, ``capture_rate_note``).
     """
-    from .tracking import track_video, usable_rows
+    from .video.track import track_video, usable_rows
 
     table = track_video(path, capture_fps=capture_fps)
     table = table[table["quality"] != "duplicate"]  # a repeated frame carries no new instant
@@ -207,7 +207,7 @@ def _capture_time(table, rows, scales, capture_fps, gravity_m_s2, extra):
     """Frame times in s of capture; infer the capture rate from gravity when no rate is given.
 
     With a scale independent of gravity, the flights' acceleration in the file's time tells the
-    capture rate (:func:`dropfit.calibration.infer_capture_rate`). Notes go into ``extra``.
+    capture rate (:func:`dropfit.video.calibrate.infer_capture_rate`). Notes go into ``extra``.
     """
     time = table["time_s"].to_numpy()
     file_fps = float(table.attrs.get("container_fps") or 0.0)

@@ -42,7 +42,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .numerics import linear_fit, robust_sigma
+from ..numerics import linear_fit, robust_sigma
 
 #: Scale sources in the order in which they are preferred.
 SCALE_PRECEDENCE = ("given", "ruler", "gravity", "diameter")
@@ -163,7 +163,7 @@ def ruler_scale(grey, tick_m):
     Parameters
     ----------
     grey : numpy.ndarray
-        Background grey levels, shape (height, width) (e.g. :attr:`dropfit.tracking.Background.grey`).
+        Background grey levels, shape (height, width) (e.g. :attr:`dropfit.video.track.Background.grey`).
     tick_m : float
         Spacing of the ruler's finest ticks in m.
 

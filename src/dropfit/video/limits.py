@@ -30,9 +30,9 @@ import dataclasses
 
 import numpy as np
 
-from .analysis import estimate_noise
-from .errors import InputError, shown_path
-from .tracking import CLEAN_QUALITIES, QUALITY_DUPLICATE
+from ..analysis import estimate_noise
+from ..errors import InputError, shown_path
+from .track import CLEAN_QUALITIES, QUALITY_DUPLICATE
 
 #: Smallest tracked ball radius, px. Sweep: a ball drawn with radius 1 px is never found and one of
 #: 1.25 px in no clean frame; drawn with 1.5–2 px it is tracked as 2.2–2.3 px (the edge threshold
@@ -63,7 +63,7 @@ def recording_measures(table):
     Parameters
     ----------
     table : pandas.DataFrame
-        As returned by :func:`dropfit.tracking.track_video` (``y_px``, ``radius_px``, ``quality``).
+        As returned by :func:`dropfit.video.track.track_video` (``y_px``, ``radius_px``, ``quality``).
 
     Returns
     -------

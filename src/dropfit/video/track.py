@@ -95,9 +95,9 @@ from dataclasses import dataclass, replace
 import numpy as np
 import pandas as pd
 
-from .errors import InputError, shown_path
-from .files import check_input_file
-from .numerics import least_squares_covariance, robust_sigma
+from ..errors import InputError, shown_path
+from ..files import check_input_file
+from ..numerics import least_squares_covariance, robust_sigma
 from .opencv import cv2, decoder_output_silenced
 
 QUALITY_OK = "ok"
