@@ -9,8 +9,9 @@ import pytest
 
 from dropfit.errors import InputError
 from dropfit.synth import simulate_drop
-from dropfit.video.track import (QUALITY_BLURRED, QUALITY_DUPLICATE, QUALITY_LOST, QUALITY_OCCLUDED, QUALITY_OK, QUALITY_PARTIAL,
-                              TRACKED_CENTRE_CORRELATION, track_frames, track_video, usable_rows)
+from dropfit.video.detect import (QUALITY_BLURRED, QUALITY_DUPLICATE, QUALITY_LOST, QUALITY_OCCLUDED, QUALITY_OK,
+                                  QUALITY_PARTIAL)
+from dropfit.video.track import TRACKED_CENTRE_CORRELATION, track_frames, track_video, usable_rows
 from dropfit.video_synth import Camera, FrameRenderer, Scene, default_clips
 
 CLEAN_RMS_TOLERANCE_PX = 0.1  # px, centre error RMS on clean frames

@@ -117,7 +117,7 @@ def analysis_options(attrs, settings=None, sample_interval_s=0.0):
     """
     settings = settings or Settings()
     gravity = settings.site_gravity()
-    radius, mass = attrs.get("ball_radius_m"), attrs.get("ball_mass_kg")
+    radius = attrs.get("ball_radius_m")
     floor = attrs.get("floor_m")
     video = "video" in attrs
     try:

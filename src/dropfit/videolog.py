@@ -70,7 +70,8 @@ def video_background(path, samples=7):
         Grey levels (height, width), or None if no frame could be read.
     """
     from .video.opencv import cv2, decoder_output_silenced
-    from .video.track import estimate_background, video_samples
+    from .video.background import estimate_background
+    from .video.decode import video_samples
 
     with decoder_output_silenced():
         capture = cv2.VideoCapture(str(path))

@@ -32,7 +32,8 @@ import numpy as np
 
 from ..analysis import estimate_noise
 from ..errors import InputError, shown_path
-from .track import CLEAN_QUALITIES, QUALITY_DUPLICATE
+from .detect import QUALITY_DUPLICATE
+from .track import CLEAN_QUALITIES
 
 #: Smallest tracked ball radius, px. Sweep: a ball drawn with radius 1 px is never found and one of
 #: 1.25 px in no clean frame; drawn with 1.5–2 px it is tracked as 2.2–2.3 px (the edge threshold

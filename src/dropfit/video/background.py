@@ -1,0 +1,175 @@
+"""The scene without the ball: the per-pixel median of frames spread over the clip.
+
+Not the first frames: the ball is usually held at the top, by a hand, before release. A pixel
+belongs to the foreground where its grey level differs from the background by more than
+``NOISE_THRESHOLD_SIGMAS`` robust noise standard deviations (at least ``MIN_THRESHOLD_GREY``
+grey levels). A ball in view for the whole clip can be in the median: :func:`background_without_ball`
+cuts it out of the samples where it was tracked.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..numerics import robust_sigma
+from .opencv import cv2
+
+#: Foreground threshold, in robust noise standard deviations of (frame - background).
+NOISE_THRESHOLD_SIGMAS = 5.0
+
+#: Lower bound of the foreground threshold, grey levels (for noise-free or quantised video).
+MIN_THRESHOLD_GREY = 6.0
+
+#: Number of frames, spread over the clip, whose per-pixel median is the background.
+BACKGROUND_SAMPLES = 11
+
+#: Radius of the disc cut out of a background sample around a tracked ball, in tracked radii (a
+#: ball flattened in contact is up to ~10 % wider), plus BALL_MASK_MARGIN_PX (motion blur, edge).
+BALL_MASK_RADII = 1.2
+
+BALL_MASK_MARGIN_PX = 3.0
+
+
+
+@dataclass(frozen=True)
+class Background:
+    """The static scene.
+
+    Attributes
+    ----------
+    grey : numpy.ndarray
+        Background grey levels, float32, shape (height, width).
+    noise_grey : float
+        Robust standard deviation of a frame's grey level about the background, grey levels.
+    threshold_grey : float
+        Foreground threshold on ``|frame - background|``, grey levels.
+    """
+
+    grey: np.ndarray
+    noise_grey: float
+    threshold_grey: float
+
+
+def to_grey(image):
+    """Grey levels of an image as float32.
+
+    Parameters
+    ----------
+    image : numpy.ndarray
+        Grey (height, width) or BGR (height, width, 3) image, any numeric type.
+
+    Returns
+    -------
+    numpy.ndarray
+        float32 grey levels, shape (height, width).
+    """
+    image = np.asarray(image)
+    if image.ndim == 2:
+        return image.astype(np.float32, copy=False)
+    if image.ndim == 3 and image.shape[2] == 3:
+        return cv2.cvtColor(image.astype(np.float32), cv2.COLOR_BGR2GRAY)
+    if image.ndim == 3 and image.shape[2] == 1:
+        return image[:, :, 0].astype(np.float32)
+    raise ValueError(f"expected a grey or BGR image, got shape {image.shape}")
+
+
+def median_uint8(images):
+    """Per-pixel median of an odd number of uint8 images (odd-even transposition sort)."""
+    images = list(images)
+    k = len(images)
+    for step in range(k):
+        for i in range(step % 2, k - 1, 2):
+            images[i], images[i + 1] = cv2.min(images[i], images[i + 1]), cv2.max(images[i], images[i + 1])
+    return images[k // 2]
+
+
+def grey_uint8(image):
+    image = np.asarray(image)
+    if image.dtype != np.uint8:
+        return None
+    if image.ndim == 3 and image.shape[2] == 3:
+        return cv2.cvtColor(image, cv2.COLOR_BGR2GRAY)
+    if image.ndim == 3 and image.shape[2] == 1:
+        return np.ascontiguousarray(image[:, :, 0])
+    return np.ascontiguousarray(image) if image.ndim == 2 else None
+
+
+def estimate_background(samples):
+    """Background from frames spread over the clip.
+
+    Parameters
+    ----------
+    samples : sequence of numpy.ndarray
+        At least one grey or BGR frame; an odd number of 5 or more, spread over the whole clip,
+        makes the ball and hand disappear from the median.
+
+    Returns
+    -------
+    Background
+        Per-pixel median grey level, robust noise in grey levels and the foreground threshold.
+    """
+    greys = [grey_uint8(sample) for sample in samples]
+    if len(greys) % 2 and all(g is not None for g in greys):
+        grey = median_uint8(greys).astype(np.float32)
+        stack = np.stack([g[::8, ::8] for g in greys]).astype(np.float32)
+    else:
+        full = np.stack([to_grey(sample) for sample in samples])
+        grey = np.median(full, axis=0).astype(np.float32)
+        stack = full[:, ::8, ::8]
+    k = stack.shape[0]
+    if k >= 3:
+        # median absolute deviation about the median; of k samples, the median one contributes 0
+        noise = robust_sigma(stack - grey[::8, ::8], centre=0.0) * k / (k - 1)
+    else:
+        noise = 0.0
+    threshold = max(NOISE_THRESHOLD_SIGMAS * noise, MIN_THRESHOLD_GREY)
+    return Background(np.ascontiguousarray(grey, dtype=np.float32), noise, threshold)
+
+
+
+def background_without_ball(samples, balls, background):
+    """The background again with the ball cut out of its samples, when the ball is in it; else None.
+
+    Parameters
+    ----------
+    samples : sequence of numpy.ndarray
+        The frames whose per-pixel median is ``background`` (grey or BGR).
+    balls : sequence of (float, float, float)
+        The ball's centre x, y and radius tracked in each sample with ``background``, px (NaN when
+        not found).
+    background : Background
+        The first background.
+
+    Returns
+    -------
+    Background or None
+        None when no pixel is covered by the ball (a disc of ``BALL_MASK_RADII`` radii plus
+        ``BALL_MASK_MARGIN_PX``) in more than half of the samples: the median is then the scene.
+        Else the per-pixel median of the uncovered samples (the first background where every
+        sample is covered), with the first background's noise and threshold.
+    """
+    balls = np.asarray(balls, float).reshape(-1, 3)
+    found = np.isfinite(balls).all(axis=1)
+    if not found.any():
+        return None
+    typical_radius = float(np.median(balls[found, 2]))
+    height, width = background.grey.shape
+    stack = np.stack([to_grey(sample) for sample in samples])
+    rows, columns = np.ogrid[:height, :width]
+    covered = np.zeros((height, width), np.int32)
+    for grey, (x, y, radius), is_found in zip(stack, balls, found):
+        if is_found:
+            reach = BALL_MASK_RADII * max(radius, typical_radius) + BALL_MASK_MARGIN_PX
+            disc = (columns - x) ** 2 + (rows - y) ** 2 <= reach * reach
+            grey[disc] = np.nan
+            covered += disc
+    if covered.max() <= len(stack) // 2:
+        return None
+    everywhere = covered == len(stack)
+    stack[0][everywhere] = background.grey[everywhere]
+    grey = np.nanmedian(stack, axis=0).astype(np.float32)
+    return Background(grey, background.noise_grey, background.threshold_grey)
+
+

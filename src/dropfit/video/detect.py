@@ -1,0 +1,531 @@
+"""The ball in one frame: its sub-pixel centre and radius, and how cleanly it was measured.
+
+Measurement (:func:`measure_ball`). With the ball grey level ``F`` (median of the blob's interior)
+and the background ``B``, each pixel's coverage by the ball is ``a = (I - B) / (F - B)``; a
+pixel well inside the blob counts as fully covered, and an anti-aliased or motion-blurred edge
+pixel counts with its measured ``a``. The centre is the coverage-weighted centroid, and the radius
+is ``sqrt(sum(a) / pi)``; both are unbiased for a disc of uniform grey level, and the centroid
+of a motion-blurred ball is its centre averaged over the exposure. Coordinates are in px with the
+OpenCV convention: the centre of pixel (row ``i``, column ``j``) is at ``x = j``, ``y = i``;
+``y`` increases downwards.
+
+Quality flags, one per frame (column ``quality``):
+
+``ok``
+    A lone, complete ball: centre and radius are measured as above.
+``blurred``
+    A lone ball blurred by its motion into a streak longer than its own diameter: a stadium of
+    about the expected radius, along the predicted motion, swept at most about as far as the ball
+    travels in a frame interval (:func:`_is_streak`). The centre is the coverage-weighted centroid,
+    as for ``ok``: the ball's centre averaged over the exposure. No pixel is covered for the whole
+    exposure, so the radius is not measured: it is held at the radius of the ``ok`` frames.
+``partial``
+    The ball is cut by the image border: the centre comes from a geometric circle fit to the
+    sub-pixel points of the visible outline that are not on the image border (where the coverage
+    crosses one half along rays from a first centre guess), outliers trimmed. The radius is held
+    at the radius of the clean frames when there are any (a short arc fixes the centre far better
+    when it need not fix the radius too), else fitted. Column ``centre_se_px`` gives the fit's
+    standard error of the centre; ``fit_rms_px`` the RMS distance of the outline points from the
+    circle.
+``occluded``
+    The ball's blob is merged with another object (a hand holding it, or the ball's own shadow)
+    or is much smaller than expected (something in front of it). The centre and radius come from
+    a robust circle fit to the part of the outline that lies on a circle; treat them as
+    approximate. A hand holding the ball before release gives ``occluded`` frames.
+    ``centre_se_px`` and ``fit_rms_px`` are those of the circle fit.
+``centre_se_px`` and ``fit_rms_px`` are NaN for ``ok`` and ``blurred`` rows, whose coverage-weighted centroid is not a fit.
+
+Hands. A hand holding the ball is a foreground blob merged with the ball. The ball is the largest
+inscribed circle of the merged blob (this assumes the hand, as seen by the camera, is narrower
+than the ball, as fingers or a wrist are); the frame is flagged ``occluded`` because the blob is
+not a lone disc: its second-moment ellipse is elongated (axis ratio above ``MAX_AXIS_RATIO``),
+it fills less than ``MIN_ELLIPSE_FILL`` of that ellipse, or its area exceeds
+``ATTACHED_AREA_FRACTION`` times the expected ball area. Once the ball is released, the hand is a
+separate blob, and its pixels are excluded from the ball's measurement.
+
+Limitations: the camera must not move; the hand must not stay at one place for more than about
+half the clip (else it becomes part of the median background: trim such clips); the ball must differ in grey level from the background (a red ball on a green
+wall of the same luminance is invisible); shading on the ball biases the edge coverage slightly;
+a ball that is cut by the image edge in every frame has no clean radius to hold, and a circle
+fit with a free radius to a short arc is unreliable, so its frames are not usable.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..numerics import least_squares_covariance, robust_sigma
+from .opencv import cv2
+
+QUALITY_OK = "ok"
+
+QUALITY_PARTIAL = "partial"
+
+QUALITY_OCCLUDED = "occluded"
+
+QUALITY_LOST = "lost"
+
+QUALITY_DUPLICATE = "duplicate"
+
+QUALITY_BLURRED = "blurred"
+
+#: Smallest ball radius the tracker looks for, px.
+MIN_RADIUS_PX = 2.0
+
+#: Coverage above which an edge-connected interior pixel counts as fully covered.
+DEEP_COVERAGE = 0.9
+
+#: A blob whose second-moment ellipse has a larger axis ratio is not a lone disc (a disc blurred
+#: over its own diameter has 1.5).
+MAX_AXIS_RATIO = 1.6
+
+#: A blob filling less than this fraction of its second-moment ellipse (4π σ_major σ_minor) is not
+#: a lone disc.
+MIN_ELLIPSE_FILL = 0.85
+
+#: In the whole-frame search, a blob whose area exceeds this multiple of its largest inscribed
+#: circle's (plus a perimeter's worth for the coarse grid) is not a lone disc.
+MAX_FILL_RATIO = 1.3
+
+#: A blob larger than this multiple of the expected disc area (radius + 1 px) has something attached.
+ATTACHED_AREA_FRACTION = 1.3
+
+#: A blob that is not a lone disc is a motion-blur streak when the stadium (a disc of its width swept
+#: along the ball's predicted motion) covers it: their intersection over union is at least this, ...
+MIN_STREAK_OVERLAP = 0.9
+
+#: ... its half-width is within this fraction of the expected radius (plus 1 px) ...
+STREAK_RADIUS_TOLERANCE = 0.15
+
+#: ... and its sweep is at most this multiple of the predicted travel in a frame interval (plus 2 px):
+#: the exposure is at most a frame interval.
+MAX_STREAK_TRAVEL_RATIO = 1.3
+
+#: A ball whose measured area is below this fraction of the expected area is partly hidden.
+OCCLUDED_AREA_FRACTION = 0.9
+
+#: Half-length of the rays along which an outline point is placed where the coverage crosses ½, px.
+EDGE_RAY_HALF_LENGTH_PX = 3.0
+
+#: Outline points farther from the fitted circle than this many robust residual standard
+#: deviations (and than EDGE_OUTLIER_MIN_PX) are dropped before the final fit.
+EDGE_OUTLIER_SIGMAS = 3.0
+
+EDGE_OUTLIER_MIN_PX = 0.5
+
+_ELLIPSE_3 = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (3, 3))
+
+_ELLIPSE_5 = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (5, 5))
+
+_ELLIPSE_7 = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (7, 7))
+
+
+
+@dataclass(frozen=True)
+class BallMeasurement:
+    """One frame's ball, in the coordinates of the image that was measured.
+
+    Attributes
+    ----------
+    x_px, y_px : float
+        Centre, px (pixel centres at integer coordinates).
+    radius_px : float
+        Radius, px.
+    quality : str
+        One of ``ok``, ``blurred``, ``partial``, ``occluded``.
+    truncated : bool
+        The blob reaches an edge of the measured window that is not an image edge: the window was
+        too small, measure again in a larger one.
+    centre_se_px : float
+        Standard error of the centre of a circle fit (partial and occluded balls), px; NaN for ``ok``.
+    fit_rms_px : float
+        RMS distance of the outline points from the fitted circle, px; NaN for ``ok``.
+    """
+
+    x_px: float
+    y_px: float
+    radius_px: float
+    quality: str
+    truncated: bool = False
+    centre_se_px: float = math.nan
+    fit_rms_px: float = math.nan
+
+
+
+def _fill_largest(mask):
+    """The largest 8-connected blob of a uint8 mask with its holes filled, and its outline."""
+    contours, _ = cv2.findContours(mask, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_NONE)
+    if not contours:
+        return None, None
+    contour = max(contours, key=lambda c: (cv2.contourArea(c), len(c)))
+    filled = np.zeros_like(mask)
+    cv2.drawContours(filled, [contour], -1, 1, thickness=-1)
+    return filled, contour.reshape(-1, 2)
+
+
+def fit_circle(x, y):
+    """Algebraic (Kåsa) least-squares circle through points.
+
+    Parameters
+    ----------
+    x, y : numpy.ndarray
+        Point coordinates, px.
+
+    Returns
+    -------
+    (float, float, float)
+        Centre x, centre y and radius, px.
+    """
+    x = np.asarray(x, float)
+    y = np.asarray(y, float)
+    mx, my = x.mean(), y.mean()
+    u, v = x - mx, y - my
+    design = np.column_stack([u, v, np.ones_like(u)])
+    solution = np.linalg.lstsq(design, -(u * u + v * v), rcond=None)[0]
+    cx, cy = -solution[0] / 2, -solution[1] / 2
+    radius = math.sqrt(max(cx * cx + cy * cy - solution[2], 0.0))
+    return cx + mx, cy + my, radius
+
+
+def _robust_circle(points, centre, radius, keep_mask):
+    """Circle fit to outline points near a first guess, trimmed three times; None if too few points."""
+    points = points[keep_mask] if keep_mask is not None else points
+    cx, cy, r = centre[0], centre[1], radius
+    for fraction in (0.35, 0.15, 0.08):
+        distance = np.hypot(points[:, 0] - cx, points[:, 1] - cy)
+        near = np.abs(distance - r) <= max(1.5, fraction * r)
+        if near.sum() < 8:
+            return None
+        cx, cy, r = fit_circle(points[near, 0], points[near, 1])
+    return cx, cy, r
+
+
+def fit_circle_geometric(x, y, centre, radius, fixed_radius=False, iterations=8):
+    """Geometric least-squares circle (distances to the circle) by Gauss–Newton, with its errors.
+
+    Parameters
+    ----------
+    x, y : numpy.ndarray
+        Point coordinates, px.
+    centre : (float, float)
+        Starting centre (x, y), px.
+    radius : float
+        Starting radius, px; kept when ``fixed_radius``.
+    fixed_radius : bool
+        Fit the centre only.
+    iterations : int
+        Gauss–Newton steps (it converges in a few from a guess within a pixel or so).
+
+    Returns
+    -------
+    (float, float, float, float, float)
+        Centre x, y and radius, px, the standard error of the centre (root of the mean of the
+        variances of x and y, from the residual scatter), px, and the RMS residual, px.
+    """
+    x = np.asarray(x, float)
+    y = np.asarray(y, float)
+    cx, cy, r = float(centre[0]), float(centre[1]), float(radius)
+    n_params = 2 if fixed_radius else 3
+    for _ in range(iterations):
+        dx, dy = x - cx, y - cy
+        distance = np.maximum(np.hypot(dx, dy), 1e-9)
+        residual = distance - r
+        jacobian = np.column_stack([-dx / distance, -dy / distance, -np.ones_like(dx)])[:, :n_params]
+        step = np.linalg.lstsq(jacobian, -residual, rcond=None)[0]
+        cx, cy = cx + step[0], cy + step[1]
+        if not fixed_radius:
+            r += step[2]
+        if np.max(np.abs(step)) < 1e-6:
+            break
+    dx, dy = x - cx, y - cy
+    distance = np.maximum(np.hypot(dx, dy), 1e-9)
+    residual = distance - r
+    jacobian = np.column_stack([-dx / distance, -dy / distance, -np.ones_like(dx)])[:, :n_params]
+    covariance = least_squares_covariance(jacobian, residual)
+    centre_se = math.sqrt(max((covariance[0, 0] + covariance[1, 1]) / 2, 0.0))
+    return cx, cy, r, centre_se, math.sqrt(float(np.mean(residual ** 2)))
+
+
+def _edge_points(coverage, points, centre):
+    """Sub-pixel outline: where the coverage crosses ½ along the ray from ``centre`` through each point.
+
+    Returns the points (n, 2) that have a crossing within EDGE_RAY_HALF_LENGTH_PX (the one nearest
+    the starting point), in px.
+    """
+    direction = points - np.asarray(centre, float)
+    direction /= np.maximum(np.hypot(direction[:, 0], direction[:, 1]), 1e-9)[:, None]
+    offsets = np.arange(-EDGE_RAY_HALF_LENGTH_PX, EDGE_RAY_HALF_LENGTH_PX + 1e-9, 0.25)
+    sample_x = (points[:, 0, None] + offsets * direction[:, 0, None]).astype(np.float32)
+    sample_y = (points[:, 1, None] + offsets * direction[:, 1, None]).astype(np.float32)
+    values = cv2.remap(coverage.astype(np.float32), sample_x, sample_y, cv2.INTER_LINEAR,
+                       borderMode=cv2.BORDER_REPLICATE) - 0.5
+    crossing = (values[:, :-1] >= 0) & (values[:, 1:] < 0)  # inside to outside, going out
+    has = crossing.any(axis=1)
+    nearest = np.argmin(np.where(crossing, np.abs(offsets[:-1]), np.inf), axis=1)[has]
+    rows = np.flatnonzero(has)
+    a, b = values[rows, nearest], values[rows, nearest + 1]
+    offset = offsets[nearest] + (offsets[1] - offsets[0]) * a / (a - b)
+    return points[rows] + offset[:, None] * direction[rows]
+
+
+def _fit_outline(coverage, points, centre, radius, radius_ref_px):
+    """Centre, radius, centre standard error and RMS residual (px) of the ball's sub-pixel outline.
+
+    The radius is held at ``radius_ref_px`` when given; points off the circle (a seam at the edge,
+    a hand) are trimmed once. None when too few points remain.
+    """
+    if len(points) < 8:
+        return None
+    edge = _edge_points(coverage, points, centre)
+    if len(edge) < 8:
+        return None
+    fixed = radius_ref_px is not None
+    start_r = radius_ref_px if fixed else radius
+    fit = fit_circle_geometric(edge[:, 0], edge[:, 1], centre, start_r, fixed)
+    residual = np.hypot(edge[:, 0] - fit[0], edge[:, 1] - fit[1]) - fit[2]
+    spread = robust_sigma(residual)
+    inlier = np.abs(residual) <= max(EDGE_OUTLIER_SIGMAS * spread, EDGE_OUTLIER_MIN_PX)
+    if inlier.sum() < 8:
+        return None
+    return fit_circle_geometric(edge[inlier, 0], edge[inlier, 1], fit[:2], fit[2], fixed)
+
+
+def _is_streak(filled, radius_ref_px, motion_px):
+    """Whether a blob (uint8 mask) is a ball of radius ``radius_ref_px`` blurred along ``motion_px``.
+
+    A ball moving during the exposure draws a stadium: a disc of its radius swept along its motion
+    over at most its travel in a frame interval, ``motion_px`` (dx, dy), px.
+    """
+    travel = math.hypot(*motion_px)
+    if not radius_ref_px or travel == 0.0:
+        return False
+    ux, uy = motion_px[0] / travel, motion_px[1] / travel
+    rows, columns = np.indices(filled.shape)
+    along, across = columns * ux + rows * uy, rows * ux - columns * uy
+    inside = filled.astype(bool)
+    half_width = (np.ptp(across[inside]) + 1.0) / 2.0
+    sweep = np.ptp(along[inside]) + 1.0 - 2.0 * half_width
+    if (abs(half_width - radius_ref_px) > STREAK_RADIUS_TOLERANCE * radius_ref_px + 1.0
+            or sweep > MAX_STREAK_TRAVEL_RATIO * travel + 2.0):
+        return False
+    middle_along = (along[inside].min() + along[inside].max()) / 2.0
+    middle_across = (across[inside].min() + across[inside].max()) / 2.0
+    beyond = np.maximum(np.abs(along - middle_along) - max(sweep, 0.0) / 2.0, 0.0)
+    stadium = np.hypot(beyond, across - middle_across) <= half_width
+    return np.count_nonzero(stadium & inside) >= MIN_STREAK_OVERLAP * np.count_nonzero(stadium | inside)
+
+
+def measure_ball(grey, background, threshold_grey, centre_guess, radius_ref_px=None,
+                 image_edges=(True, True, True, True), motion_px=None):
+    """Sub-pixel centre and radius of the ball in one (window of a) frame.
+
+    A pure function of its arguments.
+
+    Parameters
+    ----------
+    grey, background : numpy.ndarray
+        float32 grey levels of the frame and of the background over the same window.
+    threshold_grey : float
+        Foreground threshold on ``|grey - background|``, grey levels.
+    centre_guess : (float, float)
+        Expected centre (x, y) in window px; the blob nearest to it is the ball.
+    radius_ref_px : float, optional
+        Expected radius, px; used to reject small blobs and to flag attached or hidden balls.
+    image_edges : (bool, bool, bool, bool)
+        Whether the window's left, top, right and bottom edges are edges of the image.
+    motion_px : (float, float), optional
+        Predicted displacement (dx, dy) of the ball over one frame interval, px; with
+        ``radius_ref_px``, a blob that is the ball blurred along it (:func:`_is_streak`) is measured
+        as ``blurred``.
+
+    Returns
+    -------
+    BallMeasurement or None
+        In window px; None when no blob can be the ball.
+    """
+    height, width = grey.shape
+    diff = grey - background
+    foreground = (np.abs(diff) > threshold_grey).astype(np.uint8)
+    count, labels, stats, centroids = cv2.connectedComponentsWithStats(foreground, connectivity=8)
+    if count < 2:
+        return None
+    areas = stats[1:, cv2.CC_STAT_AREA]
+    min_area = max(math.pi * MIN_RADIUS_PX ** 2, 0.2 * math.pi * radius_ref_px ** 2 if radius_ref_px else 0.0)
+    gx, gy = centre_guess
+    candidates = np.flatnonzero(areas >= min_area) + 1
+    if candidates.size == 0:
+        return None
+    ix, iy = int(round(gx)), int(round(gy))
+    inside = 0 <= ix < width and 0 <= iy < height
+    if inside and labels[iy, ix] in candidates:
+        label = int(labels[iy, ix])
+    else:
+        distance = np.hypot(centroids[candidates, 0] - gx, centroids[candidates, 1] - gy)
+        label = int(candidates[np.argmin(distance)])
+
+    blob = (labels == label).astype(np.uint8)
+    filled, _ = _fill_largest(blob)
+    left, top, right, bottom = image_edges
+    x0, y0, w, h = stats[label, :4]
+    touches = (x0 == 0, y0 == 0, x0 + w == width, y0 + h == height)
+    at_image_edge = any(t and e for t, e in zip(touches, image_edges))
+    truncated = any(t and not e for t, e in zip(touches, image_edges))
+
+    # A lone disc (even motion-blurred) is round and fills the ellipse of its second moments; a
+    # ball with a hand attached is elongated or not convex. Moments ignore a stray pixel.
+    moments = cv2.moments(filled, binaryImage=True)
+    filled_area = moments["m00"]
+    if filled_area <= 0:
+        return None
+    mu20, mu02, mu11 = (moments[k] / filled_area for k in ("mu20", "mu02", "mu11"))
+    spread = math.hypot((mu20 - mu02) / 2, mu11)
+    major, minor = (mu20 + mu02) / 2 + spread, max((mu20 + mu02) / 2 - spread, 1e-9)
+    attached = (major > MAX_AXIS_RATIO ** 2 * minor
+                or filled_area < MIN_ELLIPSE_FILL * 4 * math.pi * math.sqrt(major * minor))
+    if radius_ref_px:
+        attached |= filled_area > ATTACHED_AREA_FRACTION * math.pi * (radius_ref_px + 1.0) ** 2
+    streak = attached and motion_px is not None and _is_streak(filled, radius_ref_px, motion_px)
+    attached &= not streak
+    if attached or at_image_edge:
+        # the largest inscribed circle: the ball, when what is attached is narrower than the ball
+        inscribed = cv2.distanceTransform(filled, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+        r_in = float(inscribed.max())
+        iy_in, ix_in = np.unravel_index(int(np.argmax(inscribed)), inscribed.shape)
+
+    # The ball's grey level, and each pixel's coverage by the ball.
+    core = cv2.erode(filled, _ELLIPSE_5)
+    if attached:
+        # only the inscribed disc is surely the ball
+        yy, xx = np.ogrid[:height, :width]
+        core = core & ((xx - ix_in) ** 2 + (yy - iy_in) ** 2 <= (0.7 * r_in) ** 2).astype(np.uint8)
+    core_values = grey[core.astype(bool)] if core.any() else grey[filled.astype(bool)]
+    ball_grey = float(np.median(core_values))
+    denominator = ball_grey - background
+    sign = 1.0 if ball_grey >= float(background[filled.astype(bool)].mean()) else -1.0
+    small = np.abs(denominator) < threshold_grey
+    denominator[small] = sign * threshold_grey
+    coverage = diff / denominator
+
+    others = foreground & (1 - blob)
+    if count > 2:
+        others = cv2.dilate(others, _ELLIPSE_5)
+    region = cv2.dilate(filled, _ELLIPSE_7) & (1 - others)
+
+    if attached or at_image_edge:
+        half = ((coverage > 0.5) & region.astype(bool)).astype(np.uint8)
+        half_filled, half_outline = _fill_largest(half)
+        if half_filled is None:
+            return None
+        points = half_outline.astype(float)
+        keep = np.ones(len(points), bool)
+        if left:
+            keep &= points[:, 0] > 0
+        if top:
+            keep &= points[:, 1] > 0
+        if right:
+            keep &= points[:, 0] < width - 1
+        if bottom:
+            keep &= points[:, 1] < height - 1
+        if attached:
+            # drop outline points next to the attached object (foreground beyond the ball's fringe)
+            attachment = blob & (1 - cv2.dilate(half_filled, _ELLIPSE_3))
+            attachment = cv2.dilate(cv2.morphologyEx(attachment, cv2.MORPH_OPEN, _ELLIPSE_3), _ELLIPSE_7)
+            keep &= attachment[half_outline[:, 1], half_outline[:, 0]] == 0
+        guess_r = radius_ref_px or r_in
+        circle = _robust_circle(points, (float(ix_in), float(iy_in)), guess_r, keep)
+        cx, cy, r = circle if circle is not None else (float(ix_in), float(iy_in), float(guess_r))
+        centre_se = fit_rms = math.nan
+        outline = points[keep]
+        near = np.abs(np.hypot(outline[:, 0] - cx, outline[:, 1] - cy) - r) <= max(1.5, 0.08 * r)
+        refined = _fit_outline(np.clip(coverage, -1.0, 2.0), outline[near], (cx, cy), r, radius_ref_px)
+        if refined is not None:
+            cx, cy, r, centre_se, fit_rms = refined
+        # partial: the ball itself (not a hand reaching in from the border) crosses an image edge
+        crosses = (left and cx - r < -0.5, top and cy - r < -0.5,
+                   right and cx + r > width - 0.5, bottom and cy + r > height - 0.5)
+        quality = QUALITY_PARTIAL if (any(crosses) or not attached) else QUALITY_OCCLUDED
+        return BallMeasurement(float(cx), float(cy), float(r), quality, truncated and not attached,
+                               centre_se, fit_rms)
+
+    in_region = region.astype(bool)
+    deep_filled, _ = _fill_largest(((coverage > DEEP_COVERAGE) & in_region).astype(np.uint8))
+    weight = np.where(in_region, np.clip(coverage, -1.0, 2.0), 0.0).astype(np.float32)
+    if deep_filled is not None:
+        weight[cv2.erode(deep_filled, _ELLIPSE_3).astype(bool)] = 1.0
+    area = float(weight.sum())
+    if area <= math.pi * MIN_RADIUS_PX ** 2:
+        return None
+    x = float(weight.sum(axis=0) @ np.arange(width, dtype=np.float32)) / area
+    y = float(weight.sum(axis=1) @ np.arange(height, dtype=np.float32)) / area
+    if streak:
+        # no pixel is covered for the whole exposure, so the sum of coverage is not the ball's area
+        return BallMeasurement(x, y, radius_ref_px, QUALITY_BLURRED, truncated)
+    radius = math.sqrt(area / math.pi)
+    quality = QUALITY_OK
+    if radius_ref_px and area < OCCLUDED_AREA_FRACTION * math.pi * radius_ref_px ** 2:
+        quality = QUALITY_OCCLUDED
+    return BallMeasurement(x, y, radius, quality, truncated)
+
+
+def find_ball(grey, background, expected_radius_px=None):
+    """Search a whole frame for the ball.
+
+    Parameters
+    ----------
+    grey : numpy.ndarray
+        Grey levels of the frame (uint8 or float32).
+    background : Background
+        The static scene.
+    expected_radius_px : float, optional
+        Expected radius, px; blobs whose inscribed radius is far from it are ignored.
+
+    Returns
+    -------
+    (float, float, float) or None
+        Approximate centre x, y and radius, px; None when no blob can be the ball. Lone round
+        blobs are preferred over merged ones, then the largest inscribed circle wins.
+    """
+    if expected_radius_px:
+        scale = int(np.clip(expected_radius_px // 4, 1, 4))
+    else:
+        scale = 2
+    if scale > 1:
+        size = (grey.shape[1] // scale, grey.shape[0] // scale)
+        small = cv2.resize(grey[: size[1] * scale, : size[0] * scale], size,
+                           interpolation=cv2.INTER_AREA).astype(np.float32)
+        small_bg = cv2.resize(background.grey[: size[1] * scale, : size[0] * scale], size,
+                              interpolation=cv2.INTER_AREA)
+    else:
+        small, small_bg = grey.astype(np.float32, copy=False), background.grey
+    mask = (cv2.absdiff(small, small_bg) > background.threshold_grey).astype(np.uint8)
+    count, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
+    if count < 2:
+        return None
+    min_area = max(2.0, math.pi * (MIN_RADIUS_PX / scale) ** 2)
+    order = np.argsort(stats[1:, cv2.CC_STAT_AREA])[::-1][:50] + 1
+    best, best_key = None, None
+    for label in order:
+        x0, y0, w, h, area = stats[label]
+        if area < min_area:
+            break
+        blob = np.pad((labels[y0:y0 + h, x0:x0 + w] == label).astype(np.uint8), 1)
+        inscribed = cv2.distanceTransform(blob, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+        r_in = float(inscribed.max())
+        iy, ix = np.unravel_index(int(np.argmax(inscribed)), inscribed.shape)
+        radius = r_in * scale
+        if radius < MIN_RADIUS_PX:
+            continue
+        if expected_radius_px and not 0.5 * expected_radius_px <= radius <= 1.5 * expected_radius_px + scale:
+            continue
+        lone = area <= MAX_FILL_RATIO * math.pi * r_in ** 2 + 2 * math.pi * r_in
+        key = (lone, -abs(radius - expected_radius_px) if expected_radius_px else radius)
+        if best_key is None or key > best_key:
+            x = (x0 + ix - 1 + 0.5) * scale - 0.5
+            y = (y0 + iy - 1 + 0.5) * scale - 0.5
+            best, best_key = (x, y, radius), key
+    return best
+
+
