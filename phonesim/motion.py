@@ -49,7 +49,8 @@ class BallMotion:
             catch = refsim.Catch(after_impact=config.hand.catch_after_impact, tremor_amp_m=5e-4)
         self.truth = refsim.simulate(ball, config.drop_height_m, g_m_s2=config.g_m_s2,
                                      t_release_s=config.hand.hold_s, catch=catch,
-                                     t_end_s=config.hand.hold_s + 15.0)
+                                     t_end_s=config.hand.hold_s + (15.0 if config.duration_s is None
+                                                                   else max(config.duration_s, 0.0) + 0.2))
         self.radius_m = ball.radius_m
         if config.duration_s is not None:
             self.duration_s = float(config.duration_s)
