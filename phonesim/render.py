@@ -31,6 +31,7 @@ NOISE_FIELDS = 3
 NOISE_MARGIN_PX = 16
 #: The forearm reaches this far (m) from the palm: beyond the frame's edge.
 ARM_LENGTH_M = 2.5
+ARM_PIECES = 16
 #: The blur averages about one sub-frame sample per this many px of the ball's motion during the exposure.
 BLUR_STEP_PX = 1.0
 
@@ -203,19 +204,24 @@ class ClipRenderer:
         background = self.static[y0:y1, x0:x1].astype(np.float32)
         vignette = self.vignette[y0:y1, x0:x1, None]
         on_floor = self.floor_mask[y0:y1, x0:x1]
-        total = np.zeros_like(background)
-        for k in range(len(times)):
-            shadow = np.zeros(background.shape[:2], np.float32)
+        # the soft shadows hardly change within an exposure: averaged over at most 4 of the samples
+        shadow = np.zeros(background.shape[:2], np.float32)
+        shadow_samples = np.unique(np.linspace(0, len(times) - 1, min(len(times), 4)).round().astype(int))
+        for k in shadow_samples:
+            sample = np.zeros_like(shadow)
             if scene.wall_shadow > 0:
                 wall = soft_ellipse(cols, rows, cx[k] + wall_dx * radius[k], cy[k] + wall_dy * radius[k],
                                     radius[k], radius[k], wall_soft[k])
-                shadow = np.where(on_floor, 0.0, scene.wall_shadow * wall)
+                sample = np.where(on_floor, 0.0, scene.wall_shadow * wall)
             if floor_on[k]:
                 ellipse = soft_ellipse(cols, rows, cx[k], floor_y[k] + 0.1 * radius[k], floor_semi_x[k],
                                        floor_semi_y[k], floor_soft[k])
-                shadow = np.where(on_floor, np.maximum(shadow, floor_strength[k] * ellipse), shadow)
-            layer = background * (1.0 - shadow)[:, :, None]
-            # the ball itself only in its own box inside the region
+                sample = np.where(on_floor, np.maximum(sample, floor_strength[k] * ellipse), sample)
+            shadow += sample / len(shadow_samples)
+        layer = background * (1.0 - shadow)[:, :, None]
+        # the mean over samples of layer + coverage (colour - layer): only the balls' boxes differ from layer
+        total = layer * len(times)
+        for k in range(len(times)):
             bx0 = max(int(math.floor(cx[k] - radius[k])) - 1 - x0, 0)
             bx1 = max(min(int(math.ceil(cx[k] + radius[k])) + 2 - x0, x1 - x0), bx0)
             by0 = max(int(math.floor(cy[k] - radius[k])) - 1 - y0, 0)
@@ -224,8 +230,7 @@ class ClipRenderer:
             coverage = disc_coverage(box_cols, box_rows, cx[k], cy[k], radius[k])[:, :, None]
             colour = ball_colour(box_cols, box_rows, cx[k], cy[k], radius[k], self.config.ball, angle[k])
             box = layer[by0:by1, bx0:bx1]
-            box += coverage * (colour * vignette[by0:by1, bx0:bx1] - box)
-            total += layer
+            total[by0:by1, bx0:bx1] += coverage * (colour * vignette[by0:by1, bx0:bx1] - box)
         frame[y0:y1, x0:x1] = np.clip(total / len(times) + 0.5, 0, 255).astype(np.uint8)
         return len(times)
 
@@ -239,7 +244,12 @@ class ClipRenderer:
         arm_end = (grip_x + ARM_LENGTH_M * math.cos(angle), palm_y + ARM_LENGTH_M * math.sin(angle))
         limbs = [((grip_x - 0.03, palm_y), (grip_x + 0.03, palm_y), 0.032),
                  ((grip_x - 0.035, palm_y - 0.01), (grip_x - r - 0.006 - 0.03 * opening, grip_y + 0.1 * r), 0.011),
-                 ((grip_x, palm_y), arm_end, 0.034)]
+                 ]
+        # the forearm as a chain of short capsules: each is evaluated in its own small box
+        for k in range(ARM_PIECES):
+            a, b = k / ARM_PIECES, (k + 1) / ARM_PIECES
+            limbs.append(((grip_x + a * (arm_end[0] - grip_x), palm_y + a * (arm_end[1] - palm_y)),
+                          (grip_x + b * (arm_end[0] - grip_x), palm_y + b * (arm_end[1] - palm_y)), 0.034))
         for i in range(3):
             limbs.append(((grip_x + 0.01 + 0.012 * i, palm_y - 0.01),
                           (grip_x + r + 0.004 + 0.03 * opening, grip_y + (0.4 - 0.35 * i) * r), 0.0085))

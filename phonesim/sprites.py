@@ -114,12 +114,17 @@ class Capsule:
 
 def hand_coverage_and_colour(capsules: list[Capsule], cols, rows, skin_rgb) -> tuple[np.ndarray, np.ndarray]:
     """Coverage (0-1) and colour of a hand built from capsules; each limb is brighter along its middle."""
-    distance = np.full((rows.size, cols.size), np.inf)
-    depth = np.zeros((rows.size, cols.size))
+    distance = np.full((rows.size, cols.size), np.inf, np.float32)
+    depth = np.zeros((rows.size, cols.size), np.float32)
     for capsule in capsules:
-        d = capsule.signed_distance(cols, rows)
-        distance = np.minimum(distance, d)
-        depth = np.maximum(depth, np.clip(-d / max(capsule.radius_px, 1.0), 0.0, 1.0))
+        bx0, by0, bx1, by1 = capsule.bounds()
+        c0, c1 = np.searchsorted(cols, [bx0, bx1])
+        r0, r1 = np.searchsorted(rows, [by0, by1])
+        if c0 >= c1 or r0 >= r1:
+            continue
+        d = capsule.signed_distance(cols[c0:c1], rows[r0:r1])
+        np.minimum(distance[r0:r1, c0:c1], d, out=distance[r0:r1, c0:c1])
+        np.maximum(depth[r0:r1, c0:c1], np.clip(-d / max(capsule.radius_px, 1.0), 0.0, 1.0), out=depth[r0:r1, c0:c1])
     coverage = np.clip(0.5 - distance, 0.0, 1.0)
     shade = 0.72 + 0.28 * np.sqrt(depth)
     return coverage, np.asarray(skin_rgb, np.float32) * shade[:, :, None]
