@@ -1,6 +1,8 @@
 """Helpers the tests share (tests import these, never each other): synthetic height logs, bad logs,
-and running the ``dropfit`` command line."""
+running the ``dropfit`` command line, drawn calibration images (rulers, bands) and the real data's place."""
 
+import os
+import pathlib
 import subprocess
 import sys
 
@@ -150,3 +152,89 @@ def option_arguments(options):
 def fit_numbers(fit):
     """A fit result without its provenance fields (:data:`PROVENANCE_FIELDS`)."""
     return {key: value for key, value in fit.items() if key not in PROVENANCE_FIELDS}
+
+
+#: Supersampling of drawn calibration images: marks land at fractional pixel positions, area-averaged.
+DRAW_SUPERSAMPLING = 8
+
+
+def ruler_image(px_per_m, length_m, tick_m, tick_levels, *, size_px=None, start_px=20.0, width_px=60,
+                face_bgr=(40, 170, 60), wall_bgr=(150, 190, 210), mark_bgr=(20, 20, 20), tick_width_px=1.0,
+                numbers_every=None, bands=False, whole_rows=False, lying=False, blur_px=0.7, noise=3.0, seed=0):
+    """A BGR image of a ruler, tape measure or banded stick on a wall, drawn from the truth.
+
+    Parameters
+    ----------
+    px_per_m : float
+        Image scale along the ruler, px/m (the truth a scale must find).
+    length_m : float
+        The ruler's length in m; it starts ``start_px`` from the image's top (left when lying).
+    tick_m : float
+        Spacing of the finest marks in m (a band's length for ``bands``).
+    tick_levels : sequence of (int, float)
+        (every how many finest ticks, tick length as a fraction of the ruler's width), shortest
+        first: ``((1, 0.25), (5, 0.4), (10, 0.6))`` for mm, half-cm and cm ticks.
+    size_px : (int, int), optional
+        (length, breadth) of the image along and across the ruler; default it fits the ruler.
+    face_bgr, wall_bgr, mark_bgr : tuple of int
+        Colours of the ruler's face, the wall and the marks.
+    tick_width_px : float
+        Width of a tick along the ruler, px.
+    numbers_every : int, optional
+        Print the running number every this many finest ticks, beside the tick (as on a tape).
+    bands : bool
+        Paint alternating bands of ``tick_m`` instead of ticks (their edges are the marks).
+    whole_rows : bool
+        Put every tick on whole pixel rows (no anti-aliasing), as a ruler seen at low resolution.
+    lying : bool
+        The ruler along image rows (transposed).
+    blur_px, noise : float
+        Gaussian blur sigma in px and noise sigma in levels.
+    """
+    import cv2
+
+    ss = 1 if whole_rows else DRAW_SUPERSAMPLING
+    length, breadth = size_px or (int(start_px + length_m * px_per_m + 40), width_px + 80)
+    canvas = np.empty((length * ss, breadth * ss, 3), np.uint8)
+    canvas[:] = wall_bgr
+    left, top, bottom = 40 * ss, int(start_px * ss), int((start_px + length_m * px_per_m) * ss)
+    canvas[top:bottom, left: left + width_px * ss] = face_bgr
+    count = int(round(length_m / tick_m))
+    for index in range(count + 1):
+        centre = start_px + index * tick_m * px_per_m
+        if bands:
+            if index % 2 == 0 and index < count:
+                canvas[int(centre * ss): int((centre + tick_m * px_per_m) * ss), left: left + width_px * ss] = mark_bgr
+            continue
+        level = max(fraction for every, fraction in tick_levels if index % every == 0) \
+            if any(index % every == 0 for every, _ in tick_levels) else None
+        if level is None:
+            continue
+        if whole_rows:
+            first = int(round(centre - 0.5 * tick_width_px + 0.5))
+            rows = slice(first, first + max(int(round(tick_width_px)), 1))
+        else:
+            rows = slice(int(round((centre - 0.5 * tick_width_px) * ss)), int(round((centre + 0.5 * tick_width_px) * ss)))
+        canvas[rows, left: left + int(level * width_px * ss)] = mark_bgr
+        if numbers_every and index % numbers_every == 0 and index:
+            cv2.putText(canvas, str(index // numbers_every), (left + int(0.65 * width_px * ss), int((centre + 3) * ss)),
+                        cv2.FONT_HERSHEY_SIMPLEX, 0.3 * ss, mark_bgr, max(ss, 1))
+    image = canvas if ss == 1 else cv2.resize(canvas, (breadth, length), interpolation=cv2.INTER_AREA)
+    image = image.astype(float)
+    if blur_px:
+        image = cv2.GaussianBlur(image, (0, 0), blur_px)
+    image += np.random.default_rng(seed).normal(0.0, noise, image.shape)
+    image = np.clip(image, 0, 255).astype(np.uint8)
+    return np.ascontiguousarray(image.transpose(1, 0, 2)) if lying else image
+
+
+def real_data_dir(name):
+    """The folder ``name`` of the shared real recordings (``../shared/realdata`` from the repository,
+    or ``$DROPFIT_REALDATA``), or None where it is absent."""
+    root = pathlib.Path(__file__).resolve().parents[1]
+    candidates = [os.environ.get("DROPFIT_REALDATA"), root.parent / "shared" / "realdata",
+                  root.parent.parent / "shared" / "realdata"]
+    for candidate in candidates:
+        if candidate and (pathlib.Path(candidate) / name).is_dir():
+            return pathlib.Path(candidate) / name
+    return None

@@ -1,12 +1,16 @@
 """Video calibration: ruler scale, scale precedence and disagreement, capture rate from gravity,
 against the renderer's known image scale and frame rate."""
 
+import xml.etree.ElementTree as ElementTree
+import zipfile
+
 import cv2
 import numpy as np
 import pytest
+from helpers import real_data_dir, ruler_image
 
 from dropfit.video.calibrate import (CAPTURE_RATE_SNAP_TOLERANCE, COMMON_CAPTURE_RATES_FPS, SCALE_PRECEDENCE,
-                                 choose_scale, infer_capture_rate, ruler_scale)
+                                     choose_scale, infer_capture_rate, mark_numbers, ruler_scale)
 from dropfit.physics import STANDARD_GRAVITY_M_S2
 from dropfit.synth import simulate_drop
 from dropfit.video_synth import Camera, FrameRenderer, Scene, default_clips, render_background
@@ -67,6 +71,97 @@ def test_ruler_with_unresolved_fine_ticks_uses_the_5_and_10_cm_marks():
     assert ruler is not None, note
     assert ruler.ticks_per_step == 5
     assert ruler.scale_m_per_px * camera.px_per_m == pytest.approx(1.0, rel=RULER_SCALE_RTOL)
+
+
+#: Drawn rulers: the scale must be within this of the truth ...
+DRAWN_RULER_RTOL = 0.005  # 1 (0.5 %)
+MM_TICKS = ((1, 0.25), (5, 0.4), (10, 0.6))  # mm, half-cm and cm ticks: (every, length / ruler width)
+#: name → (ruler_image arguments, tick_m, expected marks, finest ticks per fitted step)
+DRAWN_RULERS = {
+    "green mm ruler with numbers, mm unresolved": (
+        dict(px_per_m=1537.3, length_m=0.3, tick_m=0.001, tick_levels=MM_TICKS, numbers_every=10, tick_width_px=0.6),
+        0.001, "ticks, count checked", 5),
+    "green mm ruler on a green wall": (
+        dict(px_per_m=4312.7, length_m=0.1, tick_m=0.001, tick_levels=MM_TICKS, numbers_every=10, tick_width_px=0.8,
+             wall_bgr=(60, 140, 70)), 0.001, "ticks, count checked", None),
+    "cm ruler, ticks on whole rows 4-5 px apart": (
+        dict(px_per_m=447.0, length_m=1.0, tick_m=0.01, tick_levels=((1, 0.3), (5, 0.5), (10, 0.8)), whole_rows=True,
+             face_bgr=(230, 230, 230), wall_bgr=(120, 120, 120), blur_px=0.0, noise=2.0), 0.01, "ticks, count checked", 1),
+    "yellow tape measure lying, black marks and numbers": (
+        dict(px_per_m=2113.0, length_m=0.25, tick_m=0.001, tick_levels=((1, 0.2), (5, 0.3), (10, 0.45)),
+             numbers_every=10, face_bgr=(30, 210, 235), wall_bgr=(90, 100, 110), lying=True, tick_width_px=0.6),
+        0.001, "ticks, count checked", 5),
+    "metre stick in red and white 10 cm bands on a dark wall": (
+        dict(px_per_m=398.7, length_m=1.0, tick_m=0.1, tick_levels=(), bands=True, face_bgr=(240, 240, 240),
+             mark_bgr=(40, 40, 200), wall_bgr=(30, 30, 30), width_px=12), 0.1, "band edges", 1),
+    "banded stick lying on a green wall": (
+        dict(px_per_m=612.3, length_m=1.0, tick_m=0.1, tick_levels=(), bands=True, face_bgr=(240, 240, 240),
+             mark_bgr=(40, 40, 200), wall_bgr=(160, 180, 150), width_px=14, lying=True), 0.1, "band edges", 1),
+}
+
+
+@pytest.mark.parametrize("name", DRAWN_RULERS)
+def test_drawn_rulers_of_any_colour_and_orientation_give_the_scale(name):
+    """Rulers drawn from the truth (blur, noise, numbers): the scale within 0.5 % and within
+    RULER_ERROR_IN_SE of its own standard error."""
+    drawing, tick_m, marks, per_step = DRAWN_RULERS[name]
+    ruler, note = ruler_scale(ruler_image(**drawing), tick_m)
+    assert ruler is not None, note
+    assert ruler.marks == marks
+    assert per_step is None or ruler.ticks_per_step == per_step
+    assert ruler.orientation == ("lying" if drawing.get("lying") else "upright")
+    error = ruler.scale_m_per_px * drawing["px_per_m"] - 1.0
+    assert abs(error) < DRAWN_RULER_RTOL
+    assert abs(error) < RULER_ERROR_IN_SE * ruler.scale_se_m_per_px * drawing["px_per_m"]
+
+
+def test_mark_numbers_do_not_drift_on_whole_pixel_steps():
+    """Marks 4.47 px apart rounded to whole rows (steps of 4 and 5): numbered 0 … n−1, spacing 4.47."""
+    rows = np.rint(3.2 + 4.47 * np.arange(60))
+    kept, numbers, spacing = mark_numbers(rows)
+    assert np.array_equal(numbers, np.arange(60))
+    assert spacing == pytest.approx(4.47, abs=0.02)
+    kept, numbers, _ = mark_numbers(np.delete(rows, [10, 11]))  # two missing marks keep their numbers
+    assert numbers[10] == 12
+
+
+#: The real clip's stick must agree with Tracker's hand calibration within this many of their
+#: combined standard errors.
+REAL_SCALE_AGREEMENT_IN_SE = 2.0  # 1
+#: Standard error of each end of a hand-placed Tracker calibration stick, px.
+HAND_POINT_SE_PX = 1.0  # px
+
+
+def _tracker_calibration(trz_path):
+    """(px per m of Tracker's coordinate system, ends of its calibration stick in px) from a .trz project."""
+    with zipfile.ZipFile(trz_path) as archive:
+        name = next(item for item in archive.namelist() if item.endswith(".trk"))
+        root = ElementTree.fromstring(archive.read(name))
+    values = {item.get("name"): float(item.text) for item in root.iter("property")
+              if item.get("type") == "double" and item.get("name") in ("xscale", "x1", "y1", "x2", "y2")}
+    return values["xscale"], np.array([[values["x1"], values["y1"]], [values["x2"], values["y2"]]])
+
+
+def test_real_clip_stick_scale_agrees_with_trackers_hand_calibration():
+    """Tracker's BallToss clip (640 x 480 H.264): the metre stick's 10 cm marks, found automatically in the
+    per-pixel median of the frames, against Tracker's calibration stick placed by hand (398.7 px/m)."""
+    folder = real_data_dir("tracker-balltoss")
+    if folder is None:
+        pytest.skip("the real data folder ../shared/realdata/tracker-balltoss is absent (set DROPFIT_REALDATA)")
+    import av
+
+    with av.open(str(folder / "BallTossOut.mp4")) as container:
+        frames = [frame.to_ndarray(format="bgr24") for frame in container.decode(video=0)]
+    background = np.median(np.stack(frames[::2]), axis=0).astype(np.uint8)  # the hand and ball leave
+    ruler, note = ruler_scale(background, 0.1)
+    assert ruler is not None, note
+    tracker_px_per_m, ends = _tracker_calibration(folder / "BallToss.trz")
+    stick_px = float(np.hypot(*(ends[1] - ends[0])))
+    assert tracker_px_per_m == pytest.approx(stick_px, rel=1e-6)  # the stick is 1 m
+    tracker_rel_se = np.sqrt(2.0) * HAND_POINT_SE_PX / stick_px  # two ends placed by hand
+    found_px_per_m = 1.0 / ruler.scale_m_per_px
+    combined = np.hypot(tracker_rel_se, ruler.scale_se_m_per_px / ruler.scale_m_per_px)
+    assert abs(found_px_per_m / tracker_px_per_m - 1.0) < REAL_SCALE_AGREEMENT_IN_SE * combined
 
 
 def test_no_ruler_is_said_not_raised():

@@ -17,15 +17,21 @@ its disagreement relative to the chosen one, s_other / s_chosen − 1.
 
 Ruler
 -----
-:func:`ruler_scale` finds a ruler's tick marks in the background image: columns whose vertical
-grey-level changes are strong form the ruler; in each such column the ticks are the dark runs of
-the row profile. The ticks are assumed to follow the usual marking, the finest every
-``tick_m`` and longer ones every 5 and 10 ticks. The columns with the most regularly spaced,
-resolved ticks give the tick rows (a darkness-weighted centroid, sub-pixel); the zones of columns
-with fewer (longer) ticks check the count: every longer tick must fall on the same index modulo its
-spacing ratio (5 or 10 when the finest ticks are resolved, 2 when only the 5- and 10-tick marks
-are). A straight line of tick row against tick number then gives px per tick and its standard
-error.
+:func:`ruler_scale` finds a ruler's, tape measure's or banded stick's marks in the background image,
+upright or lying, in every CIE Lab channel of a colour image (a black tick on a green ruler differs
+in a as well as in L), dark marks or light ones. Columns whose changes along them are strong form the
+ruler; in each such column the marks are the dark runs below the ruler's local face (the highest
+level nearby, so a ruler darker than its wall keeps its face), or, for painted bands, the runs'
+edges. The ticks are assumed to follow the usual marking, the finest every ``tick_m`` and longer
+ones every 5 and 10 ticks. The columns with the most regularly spaced, resolved ticks give the tick
+rows (a darkness-weighted centroid, sub-pixel); the zones of columns with fewer (longer) ticks check
+the count: every longer tick must fall on the same index modulo its spacing ratio (5 or 10 when the
+finest ticks are resolved, 2 when only the 5- and 10-tick marks are). Marks all of one length that
+cross the ruler (a stick's lines, bands) are each taken as one ``tick_m`` with no count check: a
+scale off by a whole factor shows as a disagreement with gravity or the diameter. Marks are numbered
+from a spacing fitted to all of them (:func:`mark_numbers`; ticks on whole pixel rows step 4 and 5 px
+for 4.5, and a median step would let the count drift); a straight line of mark position against
+number, with outliers left out, gives px per tick and its standard error from the residuals.
 
 Capture rate
 ------------
@@ -38,26 +44,43 @@ the measured acceleration into the capture rate and snaps it to the nearest comm
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.ndimage import gaussian_filter1d, maximum_filter1d
 
 from ..numerics import linear_fit, robust_sigma
 
 #: Scale sources in the order in which they are preferred.
 SCALE_PRECEDENCE = ("given", "ruler", "gravity", "diameter")
-#: A column belongs to the ruler if its mean |vertical grey-level step| is this many times the image median.
-RULER_COLUMN_CONTRAST = 3.0
-#: Ticks closer than this (px) are not resolved well enough to locate.
+#: A column belongs to the ruler if its mean |step| along it (smoothed over 1 px, so that noise does
+#: not hide broad bands) is this many times the image median; the ruler's columns then extend to
+#: either side while it is :data:`RULER_COLUMN_EXTENT` times the median, over gaps of up to
+#: :data:`RULER_COLUMN_GAP_PX` (a ruler's sparse long ticks and its numbers are weaker than its fine ticks).
+RULER_COLUMN_CONTRAST, RULER_COLUMN_EXTENT, RULER_COLUMN_GAP_PX = 3.0, 1.5, 4
+#: Shortest window (px) in which a profile's highest level is the ruler's face.
+FACE_WINDOW_PX = 31
+#: Marks of one length only must be found in this fraction of the ruler's strong columns (they cross
+#: it: a stick's lines or bands; a ruler's long ticks alone do not).
+MIN_UNIFORM_COVERAGE = 0.4
+#: Marks closer than this (px) are not resolved well enough to locate.
 MIN_TICK_SPACING_PX = 4.0
 #: Fewest adjacent-or-not columns that must agree on a tick count to make a zone of one tick length.
 MIN_ZONE_COLUMNS = 3
-#: Fewest ticks a column needs for a scale, and fewest longest ticks to check the count.
+#: Fewest marks a column needs for a scale, and fewest longest ticks to check the count.
 MIN_TICKS, MIN_LONG_TICKS = 10, 2
-#: Largest robust spread of a column's tick spacings, relative to their median, for regular ticks.
-MAX_TICK_SPACING_SPREAD = 0.1
+#: Largest robust spread of the marks about their straight line, relative to their spacing ...
+MAX_TICK_RESIDUAL = 0.1
+#: ... or in px, whichever is larger: marks drawn on whole pixel rows sit up to 0.5 px off the line.
+MAX_TICK_RESIDUAL_PX = 0.5
+#: A mark this many robust standard deviations off the line is left out of it.
+OUTLIER_IN_SIGMA = 4.0
 #: Largest darkness between resolved ticks, relative to a tick's (aliased fine ticks leave half-dark rows).
 MAX_GAP_DARKNESS = 0.25
+#: Dark runs this long (px) and at least this fraction of their spacing are painted bands, not ticks:
+#: their edges are the marks, one band length apart.
+MIN_BAND_PX, MIN_BAND_DUTY = 6.0, 0.35
 #: Relative steps of longer ticks on a ruler marked every 5 and 10 ticks: spacing ratio → ticks per step.
 _TICKS_PER_STEP = {10: 1, 5: 1, 2: 5}
 #: Common capture rates of phone and high-speed cameras, frames/s.
@@ -77,58 +100,133 @@ class RulerCalibration:
     Attributes
     ----------
     scale_m_per_px, scale_se_m_per_px : float
-        Image scale in m/px and its standard error.
+        Image scale in m/px and its standard error (from the residuals of the line fit of mark
+        position against mark number).
     n_ticks : int
-        Ticks in the line fit.
+        Marks in the line fit.
     ticks_per_step : int
-        Finest ticks between two fitted ticks (1 if the finest ticks are resolved, 5 if only the
+        Finest ticks between two fitted marks (1 if the finest ticks are resolved, 5 if only the
         5- and 10-tick marks are).
+    orientation : str
+        ``upright`` (ticks along image rows) or ``lying`` (along columns).
+    channel : str
+        The image channel the marks were found in: ``grey``, or ``L``, ``a``, ``b`` of CIE Lab, with
+        ``inverted`` for light marks on a dark face.
+    marks : str
+        ``ticks, count checked`` (longer ticks confirm the count), ``marks of one length`` (no longer
+        ticks; each mark is one ``tick_m`` on) or ``band edges`` (painted alternating bands).
     """
 
     scale_m_per_px: float
     scale_se_m_per_px: float
     n_ticks: int
     ticks_per_step: int
+    orientation: str = "upright"
+    channel: str = "grey"
+    marks: str = "ticks, count checked"
+    n_columns: int = 0
 
 
 def _dark_runs(profile):
-    """Sub-pixel rows (darkness-weighted centroids) and lengths (px) of the dark runs of a row profile,
-    and the darkness (grey levels below the 90th percentile, the ruler's face) of every row."""
-    face = float(np.percentile(profile, 90))
+    """Dark runs of a profile along the ruler: their sub-pixel centres (darkness-weighted centroids),
+    lengths (px) and edges (half-darkness crossings, shape (n, 2)), and the darkness of every row.
+
+    The darkness is the level below the ruler's local face, the highest level within a sixth of the
+    profile's length (at least :data:`FACE_WINDOW_PX`): a ruler darker than the wall behind it keeps its
+    own face level, and a painted band is shorter than the window.
+    """
+    window = max(FACE_WINDOW_PX, profile.size // 6)
+    face = maximum_filter1d(profile, window, mode="nearest")
     darkness = np.clip(face - profile, 0.0, None)
     contrast = float(darkness.max())
     if contrast <= 0:
-        return np.array([]), np.array([]), darkness
+        return np.array([]), np.array([]), np.empty((0, 2)), darkness
     dark = np.concatenate([[False], darkness > 0.3 * contrast, [False]])
     starts = np.flatnonzero(dark[1:] & ~dark[:-1])
     ends = np.flatnonzero(~dark[1:] & dark[:-1])  # one past the last dark row
     rows = np.arange(profile.size, dtype=float)
     centres = np.array([np.average(rows[max(a - 1, 0): b + 1], weights=darkness[max(a - 1, 0): b + 1])
                         for a, b in zip(starts, ends)])
-    return centres, (ends - starts).astype(float), darkness
+    edges = np.array([[_crossing(darkness, a - 1, a), _crossing(darkness, b, b - 1)] for a, b in zip(starts, ends)])
+    return centres, (ends - starts).astype(float), edges.reshape(-1, 2), darkness
+
+
+def _crossing(darkness, outside, inside):
+    """Sub-pixel row between adjacent rows ``outside`` and ``inside`` where the darkness crosses half
+    the run's median darkness (linear interpolation)."""
+    if outside < 0 or outside >= darkness.size:
+        return float(inside)
+    low, high = darkness[outside], darkness[inside]
+    half = 0.5 * float(np.median(darkness[darkness > 0.3 * darkness.max()]))
+    fraction = np.clip((half - low) / (high - low), 0.0, 1.0) if high != low else 0.5
+    return float(outside + fraction * (inside - outside))
+
+
+def _level(profile, row):
+    """The profile's level at the nearest row to ``row``, clipped to the profile."""
+    return float(profile[int(np.clip(np.rint(row), 0, profile.size - 1))])
+
+
+def mark_numbers(positions):
+    """Mark numbers and the spacing of regularly spaced marks, allowing for missing ones.
+
+    The spacing starts from the median step and is refined from the marks' whole extent over the
+    count of steps it holds: with marks on whole pixel rows (steps of 4 and 5 px for 4.4) a median
+    step would let the numbers drift. A mark less than half a step after the previous one is dropped.
+
+    Parameters
+    ----------
+    positions : numpy.ndarray
+        Sorted mark positions in px.
+
+    Returns
+    -------
+    (numpy.ndarray, numpy.ndarray, float)
+        The marks kept (px), their numbers (0, 1, …, float) and the spacing in px per number.
+    """
+    positions = np.asarray(positions, dtype=float)
+    spacing = float(np.median(np.diff(positions)))
+    for _ in range(3):
+        steps = np.rint(np.diff(positions) / spacing)
+        keep = np.concatenate([[True], steps > 0])
+        positions, numbers = positions[keep], np.concatenate([[0.0], np.cumsum(steps[steps > 0])])
+        spacing = (positions[-1] - positions[0]) / max(numbers[-1], 1.0)
+    return positions, numbers, spacing
 
 
 def _regular_ticks(profile):
-    """Tick rows of a column profile if its ticks are resolved and regularly spaced, else None.
+    """Mark rows of a profile along the ruler if its marks are resolved and regularly spaced, else None.
 
-    Resolved means clean gaps: between two ticks, more than a tick's half length plus 1.5 px from
-    both, the profile is back near the ruler's face. Fine ticks under 2 px apart alias into a
-    regular pattern of every other tick with half-dark rows between them, which this rejects.
+    Marks are the dark runs' centroids, or, for painted bands (runs of :data:`MIN_BAND_PX` or more
+    and :data:`MIN_BAND_DUTY` of their spacing), the runs' edges. Resolved means clean gaps:
+    between two ticks, more than a tick's half length plus 1.5 px from both, the profile is back
+    near the ruler's face. Fine ticks under 2 px apart alias into a regular pattern of every other
+    tick with half-dark rows between them, which this rejects.
     """
-    centres, lengths, darkness = _dark_runs(profile)
+    centres, lengths, edges, darkness = _dark_runs(profile)
     inside = (centres - 0.5 * lengths > 1.0) & (centres + 0.5 * lengths < profile.size - 2.0)
-    centres, lengths = centres[inside], lengths[inside]  # a tick cut by the image border is off-centre
+    centres, lengths, edges = centres[inside], lengths[inside], edges[inside]  # cut by the border: off-centre
     if centres.size < MIN_LONG_TICKS:
         return None
     spacing = float(np.median(np.diff(centres)))
-    # runs much longer than a tick mark are the background or floor beyond the ruler's ends
-    ticks = centres[(lengths <= 0.6 * spacing) & (lengths <= 3.0 * np.median(lengths))]
+    # runs much longer than a mark are the background or floor beyond the ruler's ends
+    keep = (lengths <= 0.6 * spacing) & (lengths <= 3.0 * np.median(lengths))
+    ticks, lengths, edges = centres[keep], lengths[keep], edges[keep]
     if ticks.size < MIN_LONG_TICKS:
         return None
-    steps = np.diff(ticks)
-    spacing = float(np.median(steps))
-    spread = robust_sigma(steps, centre=spacing)
-    if spacing < MIN_TICK_SPACING_PX or spread > MAX_TICK_SPACING_SPREAD * spacing:
+    banded = np.median(lengths) >= max(MIN_BAND_PX, MIN_BAND_DUTY * spacing)
+    if banded:
+        # a band is lighter on both sides in the profile itself; past the ruler's end the local face
+        # falls to the wall's level and makes a run there with no real edge
+        real = [min(_level(profile, e0 - 2.0), _level(profile, e1 + 2.0)) - _level(profile, centre)
+                > 0.3 * darkness.max() for centre, (e0, e1) in zip(ticks, edges)]
+        edges = edges[np.asarray(real, dtype=bool)]
+        if edges.shape[0] < MIN_LONG_TICKS:
+            return None
+    marks, numbers, spacing = mark_numbers(np.sort(edges.ravel()) if banded else ticks)
+    residuals = marks - np.polyval(np.polyfit(numbers, marks, 1), numbers)
+    if spacing < MIN_TICK_SPACING_PX or \
+            robust_sigma(residuals, centre=0.0) > max(MAX_TICK_RESIDUAL * spacing, MAX_TICK_RESIDUAL_PX):
         return None
     clearance = 0.5 * float(np.median(lengths)) + 1.5
     rows = np.arange(profile.size)
@@ -136,17 +234,16 @@ def _regular_ticks(profile):
             for a, b in zip(ticks[:-1], ticks[1:])]
     if np.median(gaps) > MAX_GAP_DARKNESS * darkness.max():
         return None
-    return ticks
+    return marks, bool(banded)
 
 
 def _check_count(base, longer):
     """Spacing ratios (2, 5 or 10) of the longer ticks to the ``base`` ticks, or None if any longer tick
     is off a base tick, off the common phase, or at another ratio."""
-    spacing = float(np.median(np.diff(base)))
-    index = np.rint((base - base[0]) / spacing)
+    base, index, spacing = mark_numbers(base)
     ratios = []
     for ticks in longer:
-        exact = float(np.median(np.diff(ticks))) / spacing
+        exact = mark_numbers(ticks)[2] / spacing
         ratio = int(round(exact))
         if ratio not in _TICKS_PER_STEP or abs(exact - ratio) > 0.05 * ratio:
             return None
@@ -157,67 +254,151 @@ def _check_count(base, longer):
     return ratios
 
 
-def ruler_scale(grey, tick_m):
-    """Image scale from the tick marks of a vertical ruler in a background image.
+def _longest_run(columns):
+    """The longest run of adjacent columns among sorted ``columns`` (a tick length's zone is one run;
+    columns of printed numbers that happen to match its count lie apart)."""
+    runs = np.split(np.asarray(columns), np.flatnonzero(np.diff(columns) > 1) + 1)
+    return list(max(runs, key=len))
+
+
+def _contrast_channels(image):
+    """Name → 2-D float image of the channels a ruler's marks may show in, each also inverted (light
+    marks on a dark face): grey for a grey image; CIE Lab's L, a and b for a BGR one, so that a mark
+    that differs from the face in hue only (black on a green ruler differs in a) is seen too."""
+    image = np.asarray(image)
+    if image.ndim == 2:
+        planes = {"grey": image.astype(float)}
+    else:
+        from .opencv import cv2
+
+        lab = cv2.cvtColor(np.clip(image, 0, 255).astype(np.uint8), cv2.COLOR_BGR2LAB).astype(float)
+        planes = {name: lab[:, :, k] for k, name in enumerate("Lab")}
+    return {**planes, **{f"{name} inverted": 255.0 - plane for name, plane in planes.items()}}
+
+
+def ruler_scale(image, tick_m):
+    """Image scale from the marks of a ruler, tape measure or banded stick in a background image.
+
+    The ruler may stand upright or lie (along image rows or columns), be of any colour (every CIE
+    Lab channel is searched, dark and light marks), have ticks on whole pixel rows, finest ticks too
+    close to resolve (the 5- and 10-tick marks are then used), marks of one length only, or painted
+    alternating bands (their edges are the marks). Of every channel and orientation that gives a
+    scale, one whose count longer ticks confirm is preferred, then the smallest standard error.
 
     Parameters
     ----------
-    grey : numpy.ndarray
-        Background grey levels, shape (height, width) (e.g. :attr:`dropfit.video.track.Background.grey`).
+    image : numpy.ndarray
+        Background grey levels, shape (height, width), or BGR colours, shape (height, width, 3).
     tick_m : float
-        Spacing of the ruler's finest ticks in m.
+        Spacing in m of the ruler's finest ticks, of its marks when they are all alike, or the
+        length of a painted band.
 
     Returns
     -------
     (RulerCalibration or None, str)
         The calibration, or None, and a sentence saying what was found.
     """
-    grey = np.asarray(grey, dtype=float)
-    score = np.mean(np.abs(np.diff(grey, axis=0)), axis=0)
-    strong = score > RULER_COLUMN_CONTRAST * float(np.median(score))
+    found, notes = [], []
+    for orientation in ("upright", "lying"):
+        for channel, plane in _contrast_channels(image).items():
+            ruler, note = _ruler_in(plane if orientation == "upright" else plane.T, tick_m)
+            if ruler is None:
+                notes.append(note)
+            else:
+                found.append((dataclasses.replace(ruler, orientation=orientation, channel=channel), note))
+    if not found:
+        return None, notes[0] + " (nor in any other colour channel or lying)"
+    ruler, note = _best(found)
+    return ruler, f"{note}; {ruler.orientation}, in the {ruler.channel} channel"
+
+
+def _ruler_in(grey, tick_m):
+    """:func:`ruler_scale` on one channel with the ruler along its rows (its columns cross the ticks)."""
+    score = np.mean(np.abs(np.diff(gaussian_filter1d(grey, 1.0, axis=0), axis=0)), axis=0)
+    median = float(np.median(score))
+    strong = score > RULER_COLUMN_CONTRAST * median
     if not strong.any():
-        return None, "no ruler: no column with strong vertical grey-level changes"
-    peak = int(np.argmax(np.where(strong, score, -np.inf)))
-    first, last = peak, peak
-    while first > 0 and strong[first - 1]:
-        first -= 1
-    while last + 1 < strong.size and strong[last + 1]:
-        last += 1
+        return None, "no ruler: no column with strong changes along it"
+    extent = score > RULER_COLUMN_EXTENT * median
+    found, notes, column = [], [], 0
+    while strong[column:].any():  # each zone of strong columns, widened to its extent
+        first = last = column + int(np.argmax(strong[column:]))
+        while first > 0 and extent[max(first - RULER_COLUMN_GAP_PX, 0): first].any():
+            first -= 1
+        while last + 1 < strong.size and extent[last + 1: last + 1 + RULER_COLUMN_GAP_PX].any():
+            last += 1
+        ruler, note = _ruler_in_columns(grey, first, last, strong, tick_m)
+        (notes if ruler is None else found).append(note if ruler is None else (ruler, note))
+        column = last + 1
+    if not found:
+        return None, notes[int(np.argmax([note.count(" ") for note in notes]))] if len(notes) > 1 else notes[0]
+    return _best(found)
+
+
+def _best(found):
+    """The (calibration, note) whose count longer ticks confirm, else whose marks cross the most
+    columns; then the smallest relative standard error."""
+    return min(found, key=lambda item: (item[0].marks != "ticks, count checked", -item[0].n_columns,
+                                        item[0].scale_se_m_per_px / item[0].scale_m_per_px))
+
+
+def _ruler_in_columns(grey, first, last, strong, tick_m):
+    """:func:`ruler_scale` on columns ``first`` to ``last`` of one channel (``strong``: the columns of
+    strong changes)."""
     ticks = {column: _regular_ticks(grey[:, column]) for column in range(first, last + 1)}
-    ticks = {column: rows for column, rows in ticks.items() if rows is not None}
+    ticks = {column: found[0] for column, found in ticks.items() if found is not None}
     if not ticks:
-        return None, f"no ruler: columns {first}-{last} px show no regularly spaced, resolved ticks"
+        return None, f"no ruler: columns {first}-{last} px show no regularly spaced, resolved marks"
     counts = {column: rows.size for column, rows in ticks.items()}
     # a tick length is a zone of several columns with the same count; lone columns (the ruler's
     # edges, where fine ticks alias) do not count
     zones = {}
     for column, count in counts.items():
         zones.setdefault(count, []).append(column)
-    zones = {count: [c for c in counts if abs(counts[c] - count) <= 0.05 * count] for count in zones}
+    zones = {count: _longest_run([c for c in counts if abs(counts[c] - count) <= 0.05 * count]) for count in zones}
     zones = {count: columns for count, columns in zones.items() if len(columns) >= MIN_ZONE_COLUMNS}
     if not zones:
-        return None, f"no ruler: no {MIN_ZONE_COLUMNS} columns in {first}-{last} px agree on their ticks"
+        return None, f"no ruler: no {MIN_ZONE_COLUMNS} columns in {first}-{last} px agree on their marks"
     zone_ticks = {count: _regular_ticks(np.mean([grey[:, c] for c in columns], axis=0))
                   for count, columns in zones.items()}
-    zone_ticks = {count: ticks for count, ticks in sorted(zone_ticks.items(), reverse=True) if ticks is not None}
+    zone_ticks = {count: found for count, found in sorted(zone_ticks.items(), reverse=True) if found is not None}
     # the finest zone whose count every longer tick confirms; a zone that fails (fine ticks aliased
     # to every other one, say) gives way to the next
-    for count, base in zone_ticks.items():
-        longer = [ticks for other, ticks in zone_ticks.items() if other < count]
+    for count, (base, _) in zone_ticks.items():
+        longer = [ticks for other, (ticks, _) in zone_ticks.items() if other < count]
         ratios = _check_count(base, longer) if base.size >= MIN_TICKS and longer else None
         if ratios:
+            marks, per_step = "ticks, count checked", _TICKS_PER_STEP[max(ratios)]
+            columns = len(zones[count])
             break
     else:
-        return None, (f"no ruler: no zone of columns in {first}-{last} px has {MIN_TICKS} or more regular ticks "
-                      f"whose count the longer ticks (every 2, 5 or 10 of them) confirm")
-    ratio = max(ratios)
-    per_step = _TICKS_PER_STEP[ratio]
-    index = np.rint((base - base[0]) / float(np.median(np.diff(base))))
+        # marks all of one length (one zone, or zones that agree): each is one tick_m on, there are
+        # no longer ticks to check the count against
+        sizes = {found[0].size for found in zone_ticks.values()}
+        crossing = sum(len(columns) for count, columns in zones.items() if count in zone_ticks)
+        if not zone_ticks or max(sizes) > 1.05 * min(sizes) or max(sizes) < MIN_TICKS \
+                or crossing < MIN_UNIFORM_COVERAGE * np.count_nonzero(strong[first: last + 1]):
+            return None, (f"no ruler: no zone of columns in {first}-{last} px has {MIN_TICKS} or more regular "
+                          f"marks whose count the longer ticks (every 2, 5 or 10 of them) confirm")
+        base, banded = max(zone_ticks.values(), key=lambda found: found[0].size)
+        columns = crossing
+        marks, per_step = "band edges" if banded else "marks of one length", 1
+    base, index, _ = mark_numbers(base)
     design = np.column_stack([np.ones_like(index), index * per_step])
-    coef, covariance = linear_fit(design, base)
+    kept = np.ones(base.size, dtype=bool)
+    for _ in range(3):  # a mark next to the ruler's end or a number is off the line: leave it out
+        coef, covariance = linear_fit(design[kept], base[kept])
+        residuals = base - design @ coef
+        limit = max(OUTLIER_IN_SIGMA * robust_sigma(residuals[kept], centre=0.0), MAX_TICK_RESIDUAL_PX)
+        if np.array_equal(kept, np.abs(residuals) <= limit):
+            break
+        kept = np.abs(residuals) <= limit
     px_per_tick, px_per_tick_se = abs(float(coef[1])), float(np.sqrt(covariance[1, 1]))
     scale = tick_m / px_per_tick
-    result = RulerCalibration(scale, scale * px_per_tick_se / px_per_tick, int(base.size), per_step)
+    result = RulerCalibration(scale, scale * px_per_tick_se / px_per_tick, int(kept.sum()), per_step, marks=marks,
+                              n_columns=columns)
+    if marks != "ticks, count checked":
+        return result, f"ruler in columns {first}-{last} px: {base.size} {marks}, each taken as {tick_m:g} m"
     return result, (f"ruler in columns {first}-{last} px: {base.size} ticks {per_step} apart, count checked "
                     f"against the longer ticks (every {', '.join(str(r) for r in sorted(set(ratios)))})")
 
