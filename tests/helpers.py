@@ -238,3 +238,64 @@ def real_data_dir(name):
         if candidate and (pathlib.Path(candidate) / name).is_dir():
             return pathlib.Path(candidate) / name
     return None
+
+
+def encode_clip(path, frames, fps=30, codec="libx264", rotation_deg=None, pts=None, time_base=None, gop=None):
+    """Encode BGR uint8 ``frames`` with PyAV into ``path`` (container from the suffix); return ``path``.
+
+    Parameters
+    ----------
+    fps : int or fractions.Fraction
+        The container's frame rate, frames/s.
+    codec : str
+        ``libx264`` (yuv420p) or ``mjpeg`` (yuvj420p).
+    rotation_deg : int, optional
+        Counter-clockwise display rotation written as the stream's display matrix, degrees.
+    pts, time_base : sequence of int, fractions.Fraction, optional
+        Each frame's presentation time stamp, in ``time_base`` units, for irregular timing.
+    gop : int, optional
+        Frames between key frames.
+    """
+    import av
+
+    height, width = frames[0].shape[:2]
+    container = av.open(str(path), "w")
+    stream = container.add_stream(codec, rate=fps)
+    stream.width, stream.height = width, height
+    stream.pix_fmt = "yuvj420p" if codec == "mjpeg" else "yuv420p"
+    if gop:
+        stream.codec_context.gop_size = gop
+    if codec == "libx264":
+        stream.options = {"crf": "12"}  # small clips, little loss: the tracker's accuracy is tested elsewhere
+    if time_base is not None:
+        stream.codec_context.time_base = time_base
+    if rotation_deg is not None:
+        stream.set_display_rotation(rotation_deg)
+    for index, image in enumerate(frames):
+        frame = av.VideoFrame.from_ndarray(np.ascontiguousarray(image), format="bgr24")
+        if pts is not None:
+            frame.pts, frame.time_base = int(pts[index]), time_base
+        container.mux(stream.encode(frame))
+    container.mux(stream.encode())
+    container.close()
+    return path
+
+
+def ball_frames(count=40, shape=(96, 160), radius=6.0, seed=0, step_px=(3.0, 0.0), start=(20.3, 20.2),
+                gravity_px=0.08):
+    """``count`` BGR frames of a bright ball on a smoothly patterned grey background moving on a parabola, and
+    the true centres (x, y), px (anti-aliased by 4 × 4 supersampling). Frame ``k`` has the centre
+    ``start + k step_px + (0, gravity_px k² / 2)``: the defaults keep 40 frames in view."""
+    rng = np.random.default_rng(seed)
+    rows, columns = np.mgrid[0:shape[0], 0:shape[1]]
+    phase = rng.uniform(0, 2 * np.pi, 2)
+    background = 90.0 + 10.0 * np.sin(columns / 9.0 + phase[0]) * np.cos(rows / 7.0 + phase[1]) + 0.1 * columns
+    rows, columns = np.mgrid[0:shape[0] * 4, 0:shape[1] * 4] / 4.0 - 0.375
+    frames, centres = [], []
+    for k in range(count):
+        x, y = start[0] + step_px[0] * k, start[1] + step_px[1] * k + 0.5 * gravity_px * k * k
+        inside = ((columns - x) ** 2 + (rows - y) ** 2 <= radius ** 2).reshape(shape[0], 4, shape[1], 4).mean(axis=(1, 3))
+        grey = np.clip(np.round(background * (1 - inside) + 230.0 * inside), 0, 255).astype(np.uint8)
+        frames.append(np.repeat(grey[:, :, None], 3, axis=2))
+        centres.append((x, y))
+    return frames, np.array(centres)

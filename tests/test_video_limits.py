@@ -44,7 +44,7 @@ def tracked_table(truth, fps, duration_s=1.7, radius_px=5.0, noise_px=0.02, clea
 
 def refusal_of(tmp_path, monkeypatch, table):
     """The one-line message with which trajectory_from_video refuses ``table`` as a tracked video."""
-    monkeypatch.setattr("dropfit.video.track.track_video", lambda path, capture_fps=None: table)
+    monkeypatch.setattr("dropfit.video.track.track_video_and_background", lambda path, capture_fps=None: (table, None))
     with pytest.raises(InputError) as caught:
         trajectory_from_video(tmp_path / "clip.avi", ball_radius_m=BALL_RADIUS_M)
     return str(caught.value)

@@ -354,19 +354,21 @@ def _video_frame_html(trajectory):
     attrs = trajectory.attrs
     if "video" not in attrs or "x" not in trajectory:
         return ""
-    from .video.opencv import cv2, decoder_output_silenced
+    from .errors import InputError
+    from .video.decode import VideoFile
+    from .video.opencv import cv2
 
     scale = float(attrs["scale_m_per_px"])
     tracked = np.flatnonzero(np.isfinite(trajectory["y"].values))
     # the frame where the ball is highest after release shows it clear of hand and floor
     index = int(tracked[len(tracked) // 3 + int(np.argmax(trajectory["y"].values[tracked[len(tracked) // 3:]]))]) \
         if tracked.size else 0
-    with decoder_output_silenced():
-        capture = cv2.VideoCapture(str(attrs["video"]))
-        capture.set(cv2.CAP_PROP_POS_FRAMES, index)
-        ok, frame = capture.read()
-        capture.release()
-    if not ok:
+    try:
+        with VideoFile(attrs["video"]) as video:
+            frame = video.frame(index)
+    except (InputError, OSError):
+        frame = None
+    if frame is None:
         return f"<p>The video frame {index} could not be read back for the overlay.</p>"
     x_px = float(trajectory["x"].values[index]) / scale
     y_px = -float(trajectory["y"].values[index]) / scale

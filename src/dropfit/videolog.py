@@ -67,17 +67,16 @@ def video_background(path, samples=7):
     Returns
     -------
     numpy.ndarray or None
-        Grey levels (height, width), or None if no frame could be read.
+        Grey levels (height, width) of the displayed frames, or None if no frame could be read.
     """
-    from .video.opencv import cv2, decoder_output_silenced
     from .video.background import estimate_background
-    from .video.decode import video_samples
+    from .video.decode import VideoFile
 
-    with decoder_output_silenced():
-        capture = cv2.VideoCapture(str(path))
-        count = int(capture.get(cv2.CAP_PROP_FRAME_COUNT))
-        capture.release()
-        _, frames = video_samples(path, count, samples)
+    try:
+        with VideoFile(path) as video:
+            frames = [image for _, image in video.samples(samples)]
+    except InputError:
+        return None
     return estimate_background(frames).grey if frames else None
 
 
@@ -142,9 +141,9 @@ def trajectory_from_video(path, ball_radius_m=None, scale_m_per_px=None, capture
         others' ``scale_disagreement_<source>`` (s / s_chosen − 1), and the time base
         (``capture_fps``, ``capture_fps_source``, ``capture_rate_note``).
     """
-    from .video.track import track_video, usable_rows
+    from .video.track import track_video_and_background, usable_rows
 
-    table = track_video(path, capture_fps=capture_fps)
+    table, background = track_video_and_background(path, capture_fps=capture_fps)
     table = table[table["quality"] != "duplicate"]  # a repeated frame carries no new instant
     video_limits.check_recording(table, path)  # refuse below the limits of benchmarks/video_failure_sweep.py
     usable = usable_rows(table)
@@ -155,8 +154,9 @@ def trajectory_from_video(path, ball_radius_m=None, scale_m_per_px=None, capture
     radius_px = table["radius_px"].to_numpy()[usable]
     extra = dict(attrs or {})
     extra.update(video=str(path), frames=int(len(table)), frames_usable=int(np.count_nonzero(usable)))
-    # the ruler and the floor are read from the background; neither needed, no second read of the file
-    background = video_background(path) if ruler_tick_m or extra.get("floor_m") is None else None
+    # the ruler and the floor are read from the background the ball was tracked against
+    background = background.grey if background is not None and (ruler_tick_m or extra.get("floor_m") is None) \
+        else None
     scales = _independent_scales(background, radius_px, ball_radius_m, scale_m_per_px, ruler_tick_m, extra)
     time = _capture_time(table, rows, scales, capture_fps, gravity_m_s2, extra)
     if extra["capture_fps_source"] == _RAW_RATE_SOURCE:

@@ -1,11 +1,27 @@
-"""Frames and their times from a video file.
+"""Frames and their times from a video file, decoded with PyAV (FFmpeg) once per clip.
+
+A clip is opened once (:class:`VideoFile`): a few frames spread over it are reached by seeking
+(:meth:`VideoFile.samples`, for the background), then every frame is decoded once, in order, in
+a second thread (:meth:`VideoFile.frames`). Frames come as the phone shows them: BGR, with the
+container's rotation (display matrix) applied. Times are the frames' presentation time stamps
+(pts × time base), so variable frame timing, repeated and dropped frames keep their true instants
+(:func:`frame_times`); the container's nominal rate is the fallback.
 """
 
 from __future__ import annotations
 
+import contextlib
+import math
+import os
 import queue
+import sys
 import threading
+import time
+from dataclasses import dataclass
+from fractions import Fraction
+from pathlib import Path
 
+import av
 import numpy as np
 
 from ..errors import InputError, shown_path
@@ -53,109 +69,334 @@ def check_frame_count(decoded, declared, path):
 
 
 
-class FrameReader(threading.Thread):
-    """Decode frames ahead of the tracker, at most ``depth`` of them; iterate for (frame, time_ms)."""
+def _configure_library_logging():
+    """Keep FFmpeg's messages about damaged frames off the terminal; ``DROPFIT_VIDEO_LOG=1`` shows them."""
+    av.logging.set_level(av.logging.WARNING if os.environ.get("DROPFIT_VIDEO_LOG") else av.logging.PANIC)
 
-    def __init__(self, capture, depth=16):
-        super().__init__(daemon=True)
-        self._capture = capture
-        self._queue = queue.Queue(maxsize=depth)
-        self._halt = threading.Event()
 
-    def run(self):
+_configure_library_logging()
+
+#: Decoded frames the decoding thread may hold ahead of the tracker.
+DECODE_AHEAD_FRAMES = 16
+#: Clips with at least this many frames show their progress (shorter ones take a second or two).
+PROGRESS_MIN_FRAMES = 500
+#: Least time between two updates of the progress line on a terminal, s.
+PROGRESS_INTERVAL_S = 0.25
+
+#: cv2.rotate code that turns a coded frame into the displayed one, by counter-clockwise rotation in degrees.
+_ROTATE_CODES = {90: cv2.ROTATE_90_COUNTERCLOCKWISE, 180: cv2.ROTATE_180, 270: cv2.ROTATE_90_CLOCKWISE}
+
+
+@dataclass(frozen=True)
+class ClipInfo:
+    """What a video file says about itself.
+
+    Attributes
+    ----------
+    path : pathlib.Path
+        The file.
+    width, height : int
+        Size of the displayed frame (rotation applied), px.
+    rotation_deg : int
+        Counter-clockwise rotation that turns a coded frame into the displayed one (the display
+        matrix), degrees: 0, 90, 180 or 270. A phone held upright usually stores 270 (its sensor's
+        landscape frames, shown rotated clockwise by a quarter turn).
+    codec : str
+        The decoder's name (``h264``, ``hevc``, ``mjpeg``, ...).
+    container_fps : fractions.Fraction or None
+        The container's nominal frame rate, frames/s (29.97 fps is 30000/1001); None when unknown.
+    frame_count : int
+        Frames the container declares (0 when it does not say).
+    duration_s : float
+        The stream's duration, s (NaN when unknown).
+    """
+
+    path: Path
+    width: int
+    height: int
+    rotation_deg: int
+    codec: str
+    container_fps: Fraction | None
+    frame_count: int
+    duration_s: float
+
+
+class VideoFile:
+    """A video file opened once (``av.open``) for its background samples and one decoding pass.
+
+    Use as a context manager. :meth:`samples` reaches a few frames spread over the clip by seeking,
+    then :meth:`frames` decodes every frame once, in order, in a second thread ahead of the caller
+    (FFmpeg releases the GIL while it decodes, and decodes with its own threads too).
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The video file (already checked to exist and be readable).
+
+    Raises
+    ------
+    InputError
+        When the file cannot be opened as a video, or not one frame of it can be decoded.
+    """
+
+    def __init__(self, path):
+        self.path = Path(path)
+        name = shown_path(path)
+        unopenable = InputError(f"{name}: cannot be opened as a video: the file is damaged or not a video (a truncated "
+                                f".mp4 or .mov lacks its index, which is written last); copy or export it again")
         try:
-            while not self._halt.is_set():
-                ok, frame = self._capture.read()
-                if not ok:
-                    break
-                item = (frame, self._capture.get(cv2.CAP_PROP_POS_MSEC))
-                while not self._halt.is_set():
-                    try:
-                        self._queue.put(item, timeout=0.1)
-                        break
-                    except queue.Full:
-                        continue
-        finally:
-            self._queue.put(None)
+            self._container = av.open(str(path))
+        except (av.FFmpegError, OSError) as error:
+            raise unopenable from error
+        try:
+            if not self._container.streams.video:
+                raise unopenable
+            self._stream = stream = self._container.streams.video[0]
+            stream.thread_type = "AUTO"  # FFmpeg's own decoding threads (frames or slices)
+            rate = stream.average_rate or stream.guessed_rate
+            fps = Fraction(rate) if rate else None
+            time_base = stream.time_base
+            duration_s = float(stream.duration * time_base) if stream.duration and time_base else (
+                self._container.duration / av.time_base if self._container.duration else math.nan)
+            declared = stream.frames or (round(duration_s * fps) if fps and math.isfinite(duration_s) else 0)
+            first = next(self._decoded(), None)
+            if first is None:
+                declared_text = f" of the {declared} its container declares" if declared >= 1 else ""
+                raise InputError(f"{name}: no frame{declared_text} could be decoded: the video is empty, truncated "
+                                 f"or corrupt; copy or export it again")
+        except BaseException:
+            self._container.close()
+            raise
+        self._first = first
+        self._start_pts = stream.start_time if stream.start_time is not None else first.pts
+        rotation = round((first.rotation or 0) / 90) * 90 % 360
+        height, width = (first.width, first.height) if rotation in (90, 270) else (first.height, first.width)
+        self.info = ClipInfo(self.path, width, height, rotation, stream.codec_context.name, fps, int(declared),
+                             duration_s)
 
-    def __iter__(self):
-        while True:
-            item = self._queue.get()
-            if item is None:
-                return
-            yield item
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
 
     def close(self):
-        """Stop decoding and wait for the thread."""
-        self._halt.set()
-        while self.is_alive():
+        """Close the file."""
+        self._container.close()
+
+    def _decoded(self):
+        """av.VideoFrame objects from the current position, skipping packets the decoder refuses."""
+        for packet in self._container.demux(self._stream):
             try:
-                self._queue.get(timeout=0.1)
-            except queue.Empty:
-                pass
+                yield from packet.decode()
+            except av.FFmpegError:  # a damaged frame: a gap in the times (a truncated file fails the count)
+                continue
+
+    def time_s(self, frame):
+        """Presentation time of a decoded frame, s from the stream's start (NaN without a time stamp)."""
+        if frame.pts is None or frame.time_base is None:
+            return math.nan
+        return float((frame.pts - self._start_pts) * frame.time_base)
+
+    def image(self, frame):
+        """The frame as the phone shows it: BGR uint8, rotation applied."""
+        image = frame.to_ndarray(format="bgr24")
+        code = _ROTATE_CODES.get(self.info.rotation_deg)
+        return image if code is None else cv2.rotate(image, code)
+
+    def samples(self, count):
+        """About ``count`` frames spread over the clip, for the background: (time s, BGR image) pairs.
+
+        Reached by seeking, cheaply: with at least ``count`` key frames in the container's index,
+        the spread key frames (one frame decoded each; every frame of an intra-only codec such as
+        MJPEG is one); with fewer (long groups of pictures), frames spread over the index,
+        decoded forward from the key frame before each and in one sweep where they share it (at
+        worst the whole clip once). A container without an index (a damaged file) is decoded
+        once to the end, keeping frames at a doubling stride.
+        """
+        entries = sorted(self._stream.index_entries, key=lambda entry: entry.timestamp)
+        if not entries or self._first.pts is None:
+            return self._samples_by_stride(count)
+        keys = [position for position, entry in enumerate(entries) if entry.is_keyframe]
+        targets = ([keys[i] for i in spread_indices(len(keys), count)] if len(keys) >= count
+                   else list(spread_indices(len(entries), count)))
+        # the index holds decoding time stamps; seeking and frames use presentation ones
+        offset = self._first.pts - entries[0].timestamp
+        samples, decoder, position = [], None, -1
+        for target in targets:
+            key = max((k for k in keys if k <= target), default=0)
+            if decoder is None or key > position:
+                self._container.seek(entries[key].timestamp + offset, stream=self._stream, backward=True)
+                decoder = self._decoded()
+            wanted = entries[target].timestamp + offset
+            frame = next((f for f in decoder if f.pts is not None and f.pts >= wanted), None)
+            if frame is None:
+                break
+            samples.append((self.time_s(frame), self.image(frame)))
+            position = target
+        return samples
+
+    def _samples_by_stride(self, count):
+        self._rewind()
+        kept, stride = [], 1
+        for index, frame in enumerate(self._decoded()):
+            if index % stride == 0:
+                kept.append((index, frame))
+                if len(kept) > 2 * count:
+                    stride *= 2
+                    kept = [(i, f) for i, f in kept if i % stride == 0]
+        return [(self.time_s(frame), self.image(frame)) for _, frame in kept]
+
+    def _rewind(self):
+        self._container.seek(self._first.pts if self._first.pts is not None else 0, stream=self._stream,
+                             backward=True)
+
+    def frames(self, progress=None):
+        """Every frame once, in order, decoded in a second thread: (index, time s, BGR image) triples.
+
+        Parameters
+        ----------
+        progress : Progress, optional
+            Told of each frame handed out, and finished at the end.
+        """
+        self._rewind()
+        handoff = queue.Queue(maxsize=DECODE_AHEAD_FRAMES)
+        halt = threading.Event()
+        end = object()
+
+        def decode():
+            try:
+                for frame in self._decoded():
+                    item = (self.time_s(frame), self.image(frame))
+                    while not halt.is_set():
+                        try:
+                            handoff.put(item, timeout=0.1)
+                            break
+                        except queue.Full:
+                            continue
+                    if halt.is_set():
+                        return
+            finally:
+                handoff.put(end)
+
+        thread = threading.Thread(target=decode, daemon=True, name=f"decode {self.path.name}")
+        thread.start()
+        index = 0
+        try:
+            while (item := handoff.get()) is not end:
+                yield (index, *item)
+                index += 1
+                if progress is not None:
+                    progress.update(index)
+        finally:
+            halt.set()
+            while thread.is_alive():
+                with contextlib.suppress(queue.Empty):
+                    handoff.get(timeout=0.1)
+            if progress is not None:
+                progress.finish(index)
+
+    def frame(self, index):
+        """The displayed BGR frame ``index`` (decoding from the start), or None past the end."""
+        self._rewind()
+        return next((self.image(frame) for position, frame in enumerate(self._decoded()) if position == index), None)
+
+
+class Progress:
+    """How far decoding and tracking one clip has got.
+
+    On a terminal (``stream.isatty()``), one line updated in place with ``\\r`` at most every
+    ``PROGRESS_INTERVAL_S``: frames done of the declared total, frames/s and the time left. When
+    done, one line: frames, seconds and frames/s; that is the only line written where standard
+    error is not a terminal (a log file), so a log gets one line per clip, none per frame. Clips
+    shorter than ``total_min`` frames write nothing.
+
+    Parameters
+    ----------
+    label : str
+        What is decoded (the file's name).
+    total : int
+        Frames expected (0 when unknown).
+    stream : file, optional
+        Where to write; standard error by default.
+    total_min : int
+        Fewer expected frames than this: silent.
+    clock : callable
+        Seconds, monotonic (for tests).
+    """
+
+    def __init__(self, label, total, stream=None, total_min=PROGRESS_MIN_FRAMES, clock=time.monotonic):
+        self.label, self.total = label, total
+        self.stream = stream if stream is not None else sys.stderr
+        self.enabled = total >= total_min
+        self.clock = clock
+        self.started = clock()
+        self._shown = self.started
+        self._tty = self.enabled and _is_terminal(self.stream)
+
+    def update(self, done):
+        """``done`` frames so far: refresh the terminal line when it is due."""
+        if not self._tty:
+            return
+        now = self.clock()
+        if now - self._shown < PROGRESS_INTERVAL_S:
+            return
+        self._shown = now
+        rate = done / max(now - self.started, 1e-9)
+        left = f", {max(self.total - done, 0) / rate:.0f} s left" if self.total and rate > 0 else ""
+        self.stream.write(f"\r{self.label}: {done}/{self.total} frames, {rate:.0f} frames/s{left}")
+        self.stream.flush()
+
+    def finish(self, done):
+        """Write the one summary line: frames, seconds and frames/s."""
+        if not self.enabled:
+            return
+        elapsed = self.clock() - self.started
+        line = f"{self.label}: {done} frames in {elapsed:.1f} s ({done / max(elapsed, 1e-9):.0f} frames/s)"
+        self.stream.write(("\r" + line + "\x1b[K\n") if self._tty else line + "\n")
+        self.stream.flush()
+
+
+def _is_terminal(stream):
+    try:
+        return stream.isatty()
+    except (AttributeError, ValueError):
+        return False
 
 
 def spread_indices(count, samples):
+    """Up to ``samples`` distinct indices in ``range(count)``, evenly spread from the first to the last."""
     return np.unique(np.round(np.linspace(0, count - 1, min(samples, count))).astype(int))
 
 
+def frame_times(stamps_s, container_fps, capture_fps, path):
+    """Frame times and how they were obtained.
 
-def _read_samples(capture, indices):
-    samples = []
-    for index in indices:
-        if not capture.set(cv2.CAP_PROP_POS_FRAMES, int(index)):
-            return []
-        ok, frame = capture.read()
-        if not ok:
-            return []
-        samples.append(cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY) if frame.ndim == 3 else frame)
-    return samples
+    Parameters
+    ----------
+    stamps_s : array_like
+        The frames' presentation times, s (NaN where a frame had none).
+    container_fps : float or None
+        The container's nominal rate, frames/s: the times when the stamps are missing or do not
+        increase.
+    capture_fps : float or None
+        The camera's capture rate, frames/s, for a slow-motion file whose stamps are in playback
+        time: they are scaled by ``container_fps / capture_fps``.
+    path : str or pathlib.Path
+        The video, for messages.
 
-
-def video_samples(path, frame_count, samples):
-    """Grey frames spread over a video file and their indices: by seeking (cheap for MJPG AVI)."""
-    if frame_count >= 1:
-        indices = spread_indices(int(frame_count), samples)
-        # OpenCV's own MJPEG reader seeks cheaply, but reads only AVI files (asked for another, it warns)
-        backends = (cv2.CAP_OPENCV_MJPEG, cv2.CAP_ANY) if str(path).lower().endswith(".avi") else (cv2.CAP_ANY,)
-        for backend in backends:
-            capture = cv2.VideoCapture(str(path), backend)
-            try:
-                if capture.isOpened():
-                    frames = _read_samples(capture, indices)
-                    if len(frames) == len(indices):
-                        return list(indices), frames
-            finally:
-                capture.release()
-    # unknown length or no seeking: decode everything, keeping frames at a doubling stride
-    capture = cv2.VideoCapture(str(path))
-    kept, stride, index = [], 1, 0
-    try:
-        while True:
-            ok, frame = capture.read()
-            if not ok:
-                break
-            if index % stride == 0:
-                kept.append((index, cv2.cvtColor(frame, cv2.COLOR_BGR2GRAY) if frame.ndim == 3 else frame))
-                if len(kept) > 2 * samples:
-                    stride *= 2
-                    kept = [(i, f) for i, f in kept if i % stride == 0]
-            index += 1
-    finally:
-        capture.release()
-    return [i for i, _ in kept], [f for _, f in kept]
-
-
-
-def frame_times(stamps_ms, container_fps, capture_fps, path):
-    """Frame times, s, and how they were obtained."""
-    count = len(stamps_ms)
+    Returns
+    -------
+    (numpy.ndarray, str)
+        Times, s, and how they were obtained.
+    """
+    count = len(stamps_s)
     index = np.arange(count, dtype=float)
-    stamps = np.asarray(stamps_ms, float)
-    meaningful = (np.all(np.isfinite(stamps)) and (count == 1 or (np.all(np.diff(stamps) > 0) and stamps[-1] > 0)))
-    nominal = container_fps if container_fps and np.isfinite(container_fps) and container_fps > 0 else None
+    stamps = np.asarray(stamps_s, float)
+    meaningful = np.all(np.isfinite(stamps)) and (count == 1 or np.all(np.diff(stamps) > 0))
+    nominal = float(container_fps) if container_fps and math.isfinite(container_fps) and container_fps > 0 else None
     if meaningful:
-        times, how = stamps / 1000.0, "container time stamps"
+        times, how = stamps, "container time stamps"
         if capture_fps:
             if nominal is None:
                 return index / capture_fps, f"frame index / capture_fps {capture_fps:g}"
@@ -166,5 +407,3 @@ def frame_times(stamps_ms, container_fps, capture_fps, path):
     if nominal is None:
         raise InputError(f"{shown_path(path)}: the video has neither frame time stamps nor a frame rate; pass capture_fps")
     return index / nominal, f"frame index / container rate {nominal:g} fps"
-
-

@@ -44,11 +44,10 @@ import pandas as pd
 from ..errors import InputError, shown_path
 from ..files import check_input_file
 from .background import BACKGROUND_SAMPLES, background_without_ball, estimate_background, grey_uint8, to_grey
-from .decode import (MIN_FRAMES, FrameReader, check_frame_count, check_video_file, frame_times, spread_indices,
-                     video_samples)
+from .decode import MIN_FRAMES, Progress, VideoFile, check_frame_count, check_video_file, frame_times, spread_indices
 from .detect import (QUALITY_BLURRED, QUALITY_DUPLICATE, QUALITY_LOST, QUALITY_OCCLUDED, QUALITY_OK, QUALITY_PARTIAL,
                      find_ball, measure_ball)
-from .opencv import cv2, decoder_output_silenced
+from .opencv import cv2
 
 #: Frames measured cleanly: a lone ball whose centre is its coverage-weighted centroid.
 CLEAN_QUALITIES = (QUALITY_OK, QUALITY_BLURRED)
@@ -336,29 +335,81 @@ def track_frames(frames, times_s, expected_radius_px=None, *, background=None, s
     return _found_or_raise(table, source)
 
 
-def _track_decoded(path, background, expected_radius_px):
-    """Decode a video file again and track the ball with a given background; the tracker's rows."""
-    capture = cv2.VideoCapture(str(path))
-    reader = FrameReader(capture)
-    reader.start()
-    try:
-        return _run((frame for frame, _ in reader), background, expected_radius_px)
-    finally:
-        reader.close()
-        capture.release()
+#: Decoded frames of one clip kept whole for tracking again (ball in the background) up to this
+#: many bytes; beyond, only crops around the ball are kept (:class:`_KeptFrames`).
+FRAME_MEMORY_BUDGET_BYTES = 400 * 2**20
+#: Half side of a kept crop, in ball radii plus CROP_MARGIN_PX: the tracker's search window about
+#: a predicted centre (1.5 radii plus two steps plus its margin) with room for a step of a radius.
+CROP_RADII = 4.0
+CROP_MARGIN_PX = 2 * WINDOW_MARGIN_PX
 
 
-def track_video(path, capture_fps=None, expected_radius_px=None, *, background_samples=BACKGROUND_SAMPLES):
+class _KeptFrames:
+    """The frames of the one decoding pass, kept to track the ball again with another background.
+
+    Frames are kept whole while they fit in ``budget_bytes``; past it, every frame is cut down to a
+    square crop about the ball's last tracked centre (``CROP_RADII`` radii plus ``CROP_MARGIN_PX``
+    each way), and frames before the ball was first found to nothing. A frame tracked again is the
+    new background's grey with its crop pasted in: a ball that stays near where the first pass saw
+    it (what puts it in the background) is measured from the same pixels; elsewhere there is no
+    foreground. So a clip is decoded once, whatever its length, in memory bounded by the budget
+    plus the crops (about 100 × 100 px each for a 10 px ball).
+    """
+
+    def __init__(self, budget_bytes=None):
+        self.budget_bytes = FRAME_MEMORY_BUDGET_BYTES if budget_bytes is None else budget_bytes
+        self._frames = []  # whole frames, then (x0, y0, grey crop) or None
+        self._whole = True
+        self._bytes = 0
+        self._centre = None  # last tracked (x, y, radius), px
+
+    def keep(self, frame, row):
+        """Keep ``frame`` (BGR or grey uint8) that the first pass measured as ``row`` (x, y, radius, ...)."""
+        if math.isfinite(row[0]):
+            self._centre = row[:3]
+        self._frames.append((frame, self._centre))
+        self._bytes += frame.nbytes
+        if self._whole and self._bytes > self.budget_bytes:
+            self._whole = False
+            self._frames = [(self._crop(image, centre), centre) for image, centre in self._frames]
+        elif not self._whole:
+            self._frames[-1] = (self._crop(frame, self._centre), self._centre)
+
+    @staticmethod
+    def _crop(image, centre):
+        if centre is None:
+            return None
+        x, y, radius = centre
+        reach = CROP_RADII * (radius if math.isfinite(radius) else 10.0) + CROP_MARGIN_PX
+        x0, y0 = max(int(x - reach), 0), max(int(y - reach), 0)
+        return x0, y0, to_grey(image[y0:int(y + reach) + 1, x0:int(x + reach) + 1])
+
+    def frames(self, background):
+        """The kept frames for tracking against ``background``: whole, or its grey with the crop pasted in."""
+        for kept, _ in self._frames:
+            if self._whole:
+                yield kept
+                continue
+            frame = background.grey.copy()
+            if kept is not None:
+                x0, y0, crop = kept
+                frame[y0:y0 + crop.shape[0], x0:x0 + crop.shape[1]] = crop
+            yield frame
+
+
+def track_video(path, capture_fps=None, expected_radius_px=None, *, background_samples=BACKGROUND_SAMPLES,
+                progress_stream=None, frame_memory_bytes=None):
     """Track the ball through a video file.
 
-    Frames are decoded once, in order, with :class:`cv2.VideoCapture` in a second thread (which
-    overlaps decoding and tracking where more than one core is available). The background is the
-    median of ``background_samples`` frames reached by seeking: cheap for MJPG AVI files (OpenCV's
-    own MJPEG reader), costlier for long-GOP codecs such as H.264, where FFmpeg's seek decodes
-    from a key frame, about 16 frames per sample.
+    The file is opened once and decoded once (:class:`dropfit.video.decode.VideoFile`): the
+    background is the median of ``background_samples`` frames reached by seeking to key frames,
+    then every frame is decoded in order, in a second thread, as the phone shows it (rotation
+    applied), and tracked. When the ball is in the background, the further tracking passes run on
+    frames kept in memory (:class:`_KeptFrames`), not on the file.
 
-    Times come from the container's per-frame time stamps (``CAP_PROP_POS_MSEC``) when they
-    increase, else from the frame index and the container's frame rate.
+    Times are the frames' presentation time stamps, so variable frame timing and dropped frames
+    keep their true instants; frames a recorder repeated are flagged ``duplicate``. Without time
+    stamps, times come from the frame index and the container's frame rate.
 
     Parameters
     ----------
@@ -373,72 +424,64 @@ def track_video(path, capture_fps=None, expected_radius_px=None, *, background_s
         Expected ball radius, px.
     background_samples : int
         Frames in the background median.
+    progress_stream : file, optional
+        Where a long clip's progress goes (:class:`dropfit.video.decode.Progress`); standard error
+        by default.
+    frame_memory_bytes : int, optional
+        Memory for whole frames kept for tracking again, bytes; ``FRAME_MEMORY_BUDGET_BYTES`` by default.
 
     Returns
     -------
     pandas.DataFrame
-        As :func:`track_frames`; ``attrs`` holds ``source``, ``container_fps``, ``capture_fps``,
-        ``time_source``, ``frame_count_header`` and ``noise_grey``.
+        As :func:`track_frames`; ``attrs`` holds ``source``, ``container_fps`` (frames/s),
+        ``capture_fps``, ``time_source``, ``frame_count_header``, ``rotation_deg`` (counter-clockwise,
+        applied), ``codec`` and ``noise_grey``.
 
     Raises
     ------
     InputError
         For a missing, unreadable or corrupt file, a file without frames, or a ball never found.
     """
+    return track_video_and_background(path, capture_fps, expected_radius_px, background_samples=background_samples,
+                                      progress_stream=progress_stream, frame_memory_bytes=frame_memory_bytes)[0]
+
+
+def track_video_and_background(path, capture_fps=None, expected_radius_px=None, *,
+                               background_samples=BACKGROUND_SAMPLES, progress_stream=None, frame_memory_bytes=None):
+    """:func:`track_video`'s table and the background it tracked against (a :class:`Background`),
+    for what else is read from the scene (a ruler, the floor) without opening the file again."""
     path = check_input_file(path, "video")
     name = shown_path(path)
     if capture_fps is not None and not capture_fps > 0:
         raise InputError(f"{name}: capture_fps must be positive, got {capture_fps}")
     check_video_file(path)
-    with decoder_output_silenced():  # FFmpeg's and OpenCV's complaints about damaged frames stay off the terminal
-        capture = cv2.VideoCapture(str(path))
-        if not capture.isOpened():
-            raise InputError(f"{name}: cannot be opened as a video: the file is damaged or not a video (a truncated "
-                             f".mp4 or .mov lacks its index, which is written last); copy or export it again")
-        container_fps = float(capture.get(cv2.CAP_PROP_FPS))
-        frame_count = float(capture.get(cv2.CAP_PROP_FRAME_COUNT))
-        ok, first = capture.read()
-        if not ok:
-            capture.release()
-            declared = f" of the {frame_count:.0f} its container declares" if frame_count >= 1 else ""
-            raise InputError(f"{name}: no frame{declared} could be decoded: the video is empty, truncated or "
-                             f"corrupt; copy or export it again")
-        stamps = [capture.get(cv2.CAP_PROP_POS_MSEC)]
-        # decode in a second thread (OpenCV releases the GIL) while the background is estimated and
-        # the ball tracked in this one
-        reader = FrameReader(capture)
-        reader.start()
-        try:
-            indices, samples = video_samples(path, frame_count, background_samples)
-            if not samples or samples[0].shape[:2] != first.shape[:2]:
-                raise InputError(f"{name}: the frames could not be decoded consistently (corrupt video)")
-            background = estimate_background(samples)
-            tracker = BallTracker(background, expected_radius_px)
-            rows = [tracker.update(first)]
-            for frame, stamp in reader:
-                stamps.append(stamp)
-                rows.append(tracker.update(frame))
-        finally:
-            reader.close()
-            capture.release()
-        check_frame_count(len(rows), frame_count, path)
-        if len(rows) < MIN_FRAMES:
-            raise InputError(f"{name}: the video has only {len(rows)} frame{'s' if len(rows) > 1 else ''}; a drop "
-                             f"test needs at least {MIN_FRAMES}, and tens in each flight")
-        if indices[-1] < len(rows):
-            frame_count_decoded = len(rows)
-
-            def track_again(clean):
-                rows_again = _track_decoded(path, clean, expected_radius_px)
-                if len(rows_again) != frame_count_decoded:
-                    raise InputError(f"{name}: the frames could not be decoded consistently (corrupt video)")
-                return rows_again
-
-            rows = _track_without_ball_in_background(track_again, samples, indices, background, rows)
+    with VideoFile(path) as video:
+        info = video.info
+        samples = video.samples(background_samples)
+        if not samples:
+            raise InputError(f"{name}: the frames could not be decoded consistently (corrupt video)")
+        background = estimate_background([image for _, image in samples])
+        tracker = BallTracker(background, expected_radius_px)
+        kept = _KeptFrames(frame_memory_bytes)
+        stamps, rows = [], []
+        for _, time_s, image in video.frames(Progress(path.name, info.frame_count, progress_stream)):
+            stamps.append(time_s)
+            rows.append(tracker.update(image))
+            kept.keep(image, rows[-1])
+    check_frame_count(len(rows), info.frame_count, path)
+    if len(rows) < MIN_FRAMES:
+        raise InputError(f"{name}: the video has only {len(rows)} frame{'s' if len(rows) > 1 else ''}; a drop "
+                         f"test needs at least {MIN_FRAMES}, and tens in each flight")
+    position = {stamp: index for index, stamp in enumerate(stamps)}
+    found = [(position[stamp], image) for stamp, image in samples if stamp in position]
+    if found:
+        indices, images = zip(*found)
+        rows = _track_without_ball_in_background(lambda clean: _run(kept.frames(clean), clean, expected_radius_px),
+                                                 list(images), list(indices), background, rows)
+    container_fps = float(info.container_fps) if info.container_fps else math.nan
     times, how = frame_times(stamps, container_fps, capture_fps, path)
     table = _table(rows, times)
     table.attrs.update(source=str(path), container_fps=container_fps, capture_fps=capture_fps,
-                       time_source=how, frame_count_header=frame_count, noise_grey=background.noise_grey)
-    return _found_or_raise(table, path)
-
-
+                       time_source=how, frame_count_header=info.frame_count, rotation_deg=info.rotation_deg,
+                       codec=info.codec, noise_grey=background.noise_grey)
+    return _found_or_raise(table, path), background
