@@ -180,7 +180,7 @@ def test_choose_scale_follows_the_precedence_and_reports_each_disagreement():
     assert disagreement == pytest.approx({"diameter": 0.01, "gravity": -0.01})
     assert choose_scale({**scales, "given": (0.002, 0.0)})[0] == "given"
     assert choose_scale({"diameter": scales["diameter"], "gravity": scales["gravity"]})[0] == "gravity"
-    assert SCALE_PRECEDENCE == ("given", "ruler", "gravity", "diameter")
+    assert SCALE_PRECEDENCE == ("given", "points", "target", "ruler", "gravity", "diameter")
 
 
 @pytest.mark.parametrize("capture_fps, file_fps", [(240.0, 30.0), (960.0, 30.0), (1000.0, 25.0)])

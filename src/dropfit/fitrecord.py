@@ -172,7 +172,8 @@ def _scale_record(attrs):
     return {"source": attrs.get("scale_source", attrs.get("calibration")), "m_per_px": attrs["scale_m_per_px"],
             "rel_se": attrs.get("scale_rel_se", 0.0),
             "disagreement": {key[len(prefix):]: value for key, value in attrs.items() if key.startswith(prefix)},
-            "ruler_note": attrs.get("ruler_note")}
+            "ruler_note": attrs.get("ruler_note"), "target_note": attrs.get("target_note"),
+            "tilt_note": attrs.get("tilt_note")}
 
 
 def _time_base_record(attrs):

@@ -32,10 +32,11 @@ from .heightlog import nominal_drag_of, trajectory_from_log
 from .result import RecordingResult
 from .settings import Ball, Settings, split_options
 from .video.track import TRACKED_CENTRE_CORRELATION
-from .videolog import is_video, trajectory_from_video
+from .videolog import is_video, scale_targets_of, trajectory_from_video
 
 #: Settings that apply to measuring a recording, not to an already measured trajectory.
-MEASURE_ONLY_SETTINGS = ("scale_m_per_px", "ruler_tick_m", "capture_fps")
+MEASURE_ONLY_SETTINGS = ("scale_m_per_px", "ruler_tick_m", "scale_points_px", "scale_distance_m", "marker_size_m",
+                         "board_square_m", "board_inner_corners", "capture_fps")
 
 
 def measure_recording(path, ball=None, settings=None, *, sample_id=None):
@@ -74,7 +75,8 @@ def measure_recording(path, ball=None, settings=None, *, sample_id=None):
     scale = settings.scale_m_per_px
     if is_video(path):
         trajectory = trajectory_from_video(path, ball.radius_m, scale and abs(scale), settings.capture_fps,
-                                           gravity.value_m_s2, attrs, settings.ruler_tick_m)
+                                           gravity.value_m_s2, attrs, settings.ruler_tick_m,
+                                           scale_targets_of(settings))
     else:
         trajectory = trajectory_from_log(path, scale_m_per_px=scale, gravity_m_s2=gravity.value_m_s2, attrs=attrs,
                                          height_reference=settings.height_reference)

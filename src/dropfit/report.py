@@ -341,8 +341,9 @@ def _scale_rows(scale, time_base):
         rows.append(("Scale", f"{_num(scale['m_per_px'] * 1e3, '.5f')} mm/px from {_text(scale.get('source'))}, "
                               f"relative standard error {_num(100 * scale.get('rel_se', 0.0), '.3f')} %"
                               + (f"; other scales differ by {escape(others)}" if others else "")))
-        if scale.get("ruler_note"):
-            rows.append(("Ruler", _text(scale["ruler_note"])))
+        for key, label in (("ruler_note", "Ruler"), ("target_note", "Plane target"), ("tilt_note", "Camera tilt")):
+            if scale.get(key):
+                rows.append((label, _text(scale[key])))
     if time_base:
         rows.append(("Capture rate", f"{_num(time_base['capture_fps'], '.6g')} frames/s "
                                      f"({_text(time_base.get('source'))}): {_text(time_base.get('note'))}"))

@@ -122,10 +122,21 @@ OPTIONS = {option.name: option for option in (
     Option("ball_type", f"kind of ball: {', '.join(BALL_KINDS)} (tennis gets the ITF verdict)",
            _MEASURE + ("fit",), text=True, column=True),
     Option("scale_m_per_px", "m per px for logs in px (negative if the axis points down) or videos; "
-           "default: calibrated (videos: ruler > gravity > ball diameter; px logs: gravity)", _MEASURE,
+           "default: calibrated (videos: points > marker or board > ruler > gravity > ball diameter; px logs: gravity)", _MEASURE,
            "metres per pixel (negative for image rows), not 0", column=True),
     Option("ruler_tick_m", "video: spacing in m of the finest ticks of a ruler in the ball's plane (scale from it)",
            _MEASURE, "the ruler's finest tick spacing in m (e.g. 0.01)", 0.0, 1.0, False, column=True),
+    Option("scale_points_px", "video: two image points a known distance apart, as 'x1,y1,x2,y2' in px of the "
+           "frame as displayed (with --scale-distance-m)", _MEASURE, text=True, column=True),
+    Option("scale_distance_m", "video: the distance in m between the two --scale-points-px", _MEASURE,
+           "the two points' distance in m", 0.0, 100.0, False, column=True),
+    Option("marker_size_m", "video: side in m of a printed ArUco marker in the ball's plane (scale and the camera's "
+           "tilt from it)", _MEASURE, "the marker's printed side in m (e.g. 0.08)", 0.0, 10.0, False, column=True),
+    Option("board_square_m", "video: side in m of a square of a checkerboard in the ball's plane (with "
+           "--board-inner-corners)", _MEASURE, "the board's square side in m (e.g. 0.025)", 0.0, 1.0, False,
+           column=True),
+    Option("board_inner_corners", "video: the checkerboard's inner corners per row and column, as '9x6' (a board "
+           "of 10 × 7 squares)", _MEASURE, text=True, column=True),
     Option("floor_m", "height of the floor in the log's frame, in m (makes contact times measurable)", _MEASURE,
            "the floor's height in m in the log's frame", column=True),
     Option("height_reference", "the point of the ball a height log gives: its centre (default), bottom or top",
@@ -231,11 +242,24 @@ class Settings:
     ----------
     scale_m_per_px : float, optional
         Length scale in m/px of a px log (negative when the pixel axis points down, as image rows
-        do) or of a video. Default None: calibrated (a video: ruler > gravity > ball diameter; a px
-        log: gravity).
+        do) or of a video. Default None: calibrated (a video: points > target > ruler > gravity >
+        diameter; a px log: gravity).
     ruler_tick_m : float, optional
         Video: spacing in m of the finest ticks of a ruler in the ball's plane, for the scale from
         the ruler. Default None: no ruler.
+    scale_points_px : str, optional
+        Video: two points of the displayed frame a known distance apart, ``"x1,y1,x2,y2"`` in px
+        (each taken as clicked to ±1 px), with ``scale_distance_m``. Default None.
+    scale_distance_m : float, optional
+        Video: the distance in m between the ``scale_points_px``. Default None.
+    marker_size_m : float, optional
+        Video: printed side in m of an ArUco marker in the ball's plane: its scale, and the map from
+        the image to that plane (a camera not square to it is corrected). Default None.
+    board_square_m : float, optional
+        Video: side in m of a checkerboard's squares in the ball's plane (with
+        ``board_inner_corners``): as a marker, more precisely. Default None.
+    board_inner_corners : str, optional
+        Video: the checkerboard's inner corners, ``"9x6"`` (per row x per column). Default None.
     floor_m : float, optional
         Height of the floor in m in the recording's frame (after unit conversion). With the ball's
         radius it gives the contact height, and contact times become measurable. Default None:
@@ -272,6 +296,11 @@ class Settings:
 
     scale_m_per_px: float | None = None
     ruler_tick_m: float | None = None
+    scale_points_px: str | None = None
+    scale_distance_m: float | None = None
+    marker_size_m: float | None = None
+    board_square_m: float | None = None
+    board_inner_corners: str | None = None
     floor_m: float | None = None
     height_reference: str = "centre"
     capture_fps: float | None = None
@@ -294,9 +323,42 @@ class Settings:
             raise OptionError(f"the ITF rebound window is empty ({{0}} {self.itf_rebound_min_m:g} is not below {{1}} "
                               f"{self.itf_rebound_max_m:g}); give the lower limit first",
                               "itf_rebound_min_m", "itf_rebound_max_m")
+        if (self.scale_points_px is None) != (self.scale_distance_m is None):
+            raise OptionError("{0} and {1} go together: give the two points and their distance",
+                              "scale_points_px", "scale_distance_m")
+        if self.scale_points_px is not None:
+            self.scale_points()
+        if (self.board_square_m is None) != (self.board_inner_corners is None):
+            raise OptionError("{0} and {1} go together: give the square's side and the inner corners",
+                              "board_square_m", "board_inner_corners")
+        if self.board_inner_corners is not None:
+            self.board_corners()
         if self.altitude_m is not None and self.latitude_deg is None and self.gravity_m_s2 is None:
             raise OptionError("{0} is given without {1}; give the site's latitude too (g depends on both)",
                               "altitude_m", "latitude_deg")
+
+    def scale_points(self):
+        """The ``scale_points_px`` as ((x1, y1), (x2, y2)) in px, or None; :class:`OptionError` if malformed."""
+        if self.scale_points_px is None:
+            return None
+        try:
+            values = [float(part) for part in str(self.scale_points_px).replace(";", ",").split(",")]
+        except ValueError:
+            values = []
+        if len(values) != 4 or not all(math.isfinite(v) for v in values):
+            raise OptionError(f"{{0}} is '{shown(self.scale_points_px)}'; give four numbers 'x1,y1,x2,y2' in px",
+                              "scale_points_px")
+        return (values[0], values[1]), (values[2], values[3])
+
+    def board_corners(self):
+        """The ``board_inner_corners`` as (per row, per column), or None; :class:`OptionError` if malformed."""
+        if self.board_inner_corners is None:
+            return None
+        parts = str(self.board_inner_corners).lower().replace("×", "x").split("x")
+        if len(parts) != 2 or not all(part.strip().isdigit() and int(part) >= 2 for part in parts):
+            raise OptionError(f"{{0}} is '{shown(self.board_inner_corners)}'; give the inner corners as '9x6'",
+                              "board_inner_corners")
+        return int(parts[0]), int(parts[1])
 
     def replace(self, **changes):
         """A copy with ``changes`` (option name → value), checked; TypeError for an unknown option."""

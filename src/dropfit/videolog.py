@@ -1,12 +1,21 @@
 """Videos: track the ball and calibrate pixels to metres and frames to seconds, giving the same
 trajectory as a height log.
 
-Scales come from up to four sources (:mod:`dropfit.video.calibrate`): a given scale, a ruler's ticks
-in the background (with ``ruler_tick_m``), gravity (the flights' shared acceleration in px/s²,
-quadratic drag included, over g) and the ball's known diameter (its tracked radius in px against
-its radius in m). The one used is the first available in the precedence given > ruler > gravity >
-diameter (an order by accuracy: see :mod:`dropfit.video.calibrate`); every other one is stored with its
-disagreement relative to it. The chosen scale's relative standard error (``scale_rel_se``; 0 for a
+Scales come from up to six sources (:mod:`dropfit.video.calibrate`, :mod:`dropfit.video.targets`): a
+given scale, two points a known distance apart (``scale_points_px``), a printed ArUco marker or a
+checkerboard of known size (a *target*), a ruler's ticks in the background (with ``ruler_tick_m``),
+gravity (the flights' shared acceleration in px/s², quadratic drag included, over g) and the ball's
+known diameter (its tracked radius in px against its radius in m). The one used is the first
+available in the precedence given > points > target > ruler > gravity > diameter (what the user
+states first, then by accuracy: see :mod:`dropfit.video.calibrate`); every other one is stored with
+its disagreement relative to it.
+
+A target in the ball's plane also gives the map from the image to that plane: the tracked centres
+are mapped through it, so a camera that is not square to the plane of the drop is corrected. The
+plane's vertical is the principal axis of the ball's track in it (a drop: its horizontal travel
+is small against its fall), pointing up where the image's rows point down. Without a target, the
+trend of the tracked radius with the image row tells how far a single scale can be off
+(``tilt_note``, :func:`dropfit.video.targets.tilt_bias`). The chosen scale's relative standard error (``scale_rel_se``; 0 for a
 given scale) goes with the trajectory, and the analysis adds its effect on every impact quantity
 (heights, and through the fitted drag also e, flight times and their ratios) to their covariance.
 
@@ -17,10 +26,13 @@ common camera rate; ``capture_fps`` overrides it.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from .video import limits as video_limits
 from .video.calibrate import SCALE_PRECEDENCE, choose_scale, infer_capture_rate, ruler_scale
+from .video.targets import aruco_plane, board_plane, local_scale, tilt_bias, to_plane, two_point_scale
 from .errors import InputError, shown_path
 from .heightlog import check_floor, flight_acceleration, make_trajectory, nominal_drag_of, scale_from_gravity
 from .numerics import robust_sigma
@@ -31,6 +43,36 @@ VIDEO_SUFFIXES = (".avi", ".mp4", ".mov", ".mkv", ".m4v")
 #: sub-pixel edge and centroid biases on the rendered 2000 fps close-up are up to 0.03 px. A real
 #: floor seen in perspective can be off by more: give floor_m when it matters.
 FLOOR_ROW_SE_PX = 0.05
+
+
+@dataclass(frozen=True)
+class ScaleTargets:
+    """What the user put in view, or clicked, to give a video's scale (each optional).
+
+    Attributes
+    ----------
+    points_px : ((float, float), (float, float)), optional
+        Two points of the displayed frame, px, ``distance_m`` apart (m).
+    distance_m : float, optional
+    marker_size_m : float, optional
+        Printed side of an ArUco marker in the ball's plane, m.
+    board_square_m : float, optional
+        Side of a checkerboard's squares in the ball's plane, m, with ``board_inner_corners``
+        (inner corners per row, per column).
+    board_inner_corners : (int, int), optional
+    """
+
+    points_px: tuple | None = None
+    distance_m: float | None = None
+    marker_size_m: float | None = None
+    board_square_m: float | None = None
+    board_inner_corners: tuple | None = None
+
+
+def scale_targets_of(settings):
+    """The :class:`ScaleTargets` a :class:`dropfit.settings.Settings` gives."""
+    return ScaleTargets(settings.scale_points(), settings.scale_distance_m, settings.marker_size_m,
+                        settings.board_square_m, settings.board_corners())
 
 
 def is_video(path):
@@ -110,7 +152,7 @@ def find_floor_row(background_grey, bottom_row_px, radius_px):
 
 
 def trajectory_from_video(path, ball_radius_m=None, scale_m_per_px=None, capture_fps=None,
-                          gravity_m_s2=STANDARD_GRAVITY_M_S2, attrs=None, ruler_tick_m=None):
+                          gravity_m_s2=STANDARD_GRAVITY_M_S2, attrs=None, ruler_tick_m=None, targets=None):
     """Track the ball in a drop-test video and return the trajectory dataset (heights in m, up).
 
     Parameters
@@ -130,6 +172,8 @@ def trajectory_from_video(path, ball_radius_m=None, scale_m_per_px=None, capture
         Extra attributes for the dataset.
     ruler_tick_m : float, optional
         Spacing in m of the finest ticks of a ruler in the ball's plane, for the scale from the ruler.
+    targets : ScaleTargets, optional
+        Two points a known distance apart, an ArUco marker's or a checkerboard's size.
 
     Returns
     -------
@@ -150,14 +194,25 @@ def trajectory_from_video(path, ball_radius_m=None, scale_m_per_px=None, capture
     if np.count_nonzero(usable) < 10:
         raise InputError(f"{shown_path(path)}: the ball is measured cleanly in only {np.count_nonzero(usable)} of "
                          f"{len(table)} frames (at least 10 are needed)")
+    targets = targets or ScaleTargets()
+    x_px = np.where(usable, table["x_px"].to_numpy(), np.nan)
     rows = np.where(usable, table["y_px"].to_numpy(), np.nan)
     radius_px = table["radius_px"].to_numpy()[usable]
     extra = dict(attrs or {})
     extra.update(video=str(path), frames=int(len(table)), frames_usable=int(np.count_nonzero(usable)))
-    # the ruler and the floor are read from the background the ball was tracked against
-    background = background.grey if background is not None and (ruler_tick_m or extra.get("floor_m") is None) \
-        else None
-    scales = _independent_scales(background, radius_px, ball_radius_m, scale_m_per_px, ruler_tick_m, extra)
+    # the ruler, the targets and the floor are read from the background the ball was tracked against
+    background = background.grey if background is not None else None
+    plane = _plane_target(background, targets, extra, path)
+    scales = _independent_scales(background if ruler_tick_m else None, radius_px, ball_radius_m, scale_m_per_px,
+                                 ruler_tick_m, extra)
+    if targets.points_px is not None:
+        scales["points"] = two_point_scale(targets.points_px, targets.distance_m)
+    image_rows = rows
+    if plane is not None:
+        x_px, rows, plane_scale = _through_plane(plane, x_px, rows)
+        scales["target"] = (plane_scale, plane_scale * plane.scale_se_m_per_px / plane.scale_m_per_px)
+    else:
+        extra["tilt_scale_difference"], _, extra["tilt_note"] = tilt_bias(radius_px, image_rows[usable])
     time = _capture_time(table, rows, scales, capture_fps, gravity_m_s2, extra)
     if extra["capture_fps_source"] == _RAW_RATE_SOURCE:
         extra["gravity_calibration_failed"] = "gravity set the capture rate, so it gives no independent scale"
@@ -170,22 +225,72 @@ def trajectory_from_video(path, ball_radius_m=None, scale_m_per_px=None, capture
     check_floor(-rows[np.isfinite(rows)] * scale, extra, path)  # a given floor, in the video's frame
     if extra.get("floor_m") is None and background is not None:
         median_radius_px = float(np.nanmedian(radius_px))
-        floor_row = find_floor_row(background, float(np.nanmax(rows)) + median_radius_px, median_radius_px)
+        floor_row = find_floor_row(background, float(np.nanmax(image_rows)) + median_radius_px, median_radius_px)
         if floor_row is not None:
             extra["floor_row_px"] = floor_row
+            if plane is not None:  # the floor's edge below the drop, in the plane's rows
+                floor_row = float(_through_plane(plane, np.array([np.nanmedian(table["x_px"])]),
+                                                 np.array([floor_row]))[1][0])
             extra["floor_m"] = -floor_row * scale  # heights are −row × scale
             extra["floor_se_m"] = FLOOR_ROW_SE_PX * scale
     trajectory = make_trajectory(time, -rows * scale, path, _CALIBRATION_TEXT[chosen], extra)
-    trajectory["x"] = ("time", np.where(usable, table["x_px"].to_numpy(), np.nan) * scale, {"units": "m"})
+    trajectory["x"] = ("time", x_px * scale, {"units": "m"})
     trajectory["radius"] = ("time", np.where(usable, table["radius_px"].to_numpy(), np.nan) * scale, {"units": "m"})
     return trajectory
 
 
 #: ``capture_fps_source`` of a capture rate inferred from gravity but near no common rate.
 _RAW_RATE_SOURCE = "inferred from gravity (not a common rate)"
-_CALIBRATION_TEXT = {"given": "given scale in m/px", "ruler": "scale from the ruler's ticks",
+_CALIBRATION_TEXT = {"given": "given scale in m/px", "points": "scale from two points a given distance apart",
+                     "target": "plane and scale from a target of known size (camera tilt corrected)",
+                     "ruler": "scale from the ruler's ticks",
                      "gravity": "scale from gravity (flight curvature, drag included)",
                      "diameter": "scale from the ball's diameter"}
+
+
+def _plane_target(background, targets, extra, path):
+    """The marker's or board's :class:`dropfit.video.targets.PlaneCalibration` in ``background``, or None.
+
+    Raises InputError when the user named a target that is not in view: a scale from it was asked for.
+    """
+    if targets.marker_size_m is None and targets.board_square_m is None:
+        return None
+    if background is None:
+        raise InputError(f"{shown_path(path)}: the background could not be read, so the marker or board cannot be "
+                         f"found; give scale_m_per_px or scale_points_px instead")
+    if targets.board_square_m is not None:
+        plane, note = board_plane(background, targets.board_square_m, targets.board_inner_corners)
+    else:
+        plane, note = aruco_plane(background, targets.marker_size_m)
+    if plane is None:
+        raise InputError(f"{shown_path(path)}: {note} found in the background (the scene without the ball); keep the "
+                         f"target in view, flat, in the ball's plane and unobstructed for most of the clip, or give "
+                         f"scale_points_px")
+    extra["target_note"] = note
+    return plane
+
+
+def _through_plane(plane, x_px, rows_px):
+    """Image points mapped into the target's plane, as pixels of the plane's scale at the drop.
+
+    Returns (x, rows, scale): horizontal and vertical plane coordinates divided by ``scale`` (m/px,
+    the map's local scale at the track's centre), rows pointing down as the image's do.
+    """
+    points = np.column_stack([x_px, rows_px])
+    found = np.isfinite(points).all(axis=1)
+    plane_m = np.full(points.shape, np.nan)
+    plane_m[found] = to_plane(plane.homography, points[found])
+    centre_px = np.nanmedian(points, axis=0)
+    centre_m = to_plane(plane.homography, centre_px)[0]
+    # the plane's vertical: the track's principal axis, oriented along the image's rows
+    spread = plane_m[found] - plane_m[found].mean(axis=0)
+    down = np.linalg.svd(spread, full_matrices=False)[2][0]
+    image_down = to_plane(plane.homography, centre_px + (0.0, 1.0))[0] - centre_m
+    down = down if down @ image_down > 0 else -down
+    across = np.array([-down[1], down[0]])
+    across = across if across @ (to_plane(plane.homography, centre_px + (1.0, 0.0))[0] - centre_m) > 0 else -across
+    scale = local_scale(plane.homography, centre_px)
+    return plane_m @ across / scale, plane_m @ down / scale, scale
 
 
 def _independent_scales(background, radius_px, ball_radius_m, scale_m_per_px, ruler_tick_m, extra):

@@ -5,10 +5,12 @@ Pure functions on arrays and numbers (no file I/O); :mod:`dropfit.videolog` appl
 
 Scales (m/px) and their precedence
 ----------------------------------
-A scale can be *given* (``scale_m_per_px``), read off a *ruler* in the background, taken from
-*gravity* (the flights' shared acceleration in px/s², drag included, over g) or from the ball's
-known *diameter*. The one used is the first available in the order given > ruler > gravity >
-diameter (:data:`SCALE_PRECEDENCE`): an order by accuracy, not by precision. A ruler in the ball's
+A scale can be *given* (``scale_m_per_px``), from two *points* the user gives a known distance apart,
+from a *target* (an ArUco marker or a checkerboard, :mod:`dropfit.video.targets`), read off a *ruler*
+in the background, taken from *gravity* (the flights' shared acceleration in px/s², drag included,
+over g) or from the ball's known *diameter*. The one used is the first available in the order given
+> points > target > ruler > gravity > diameter (:data:`SCALE_PRECEDENCE`): what the user states
+first, then an order by accuracy, not by precision (a target also corrects a camera's tilt). A ruler in the ball's
 plane is a direct length standard over the whole drop; gravity is the most precise
 (about 0.004 % on the default phone clip) but carries what its model leaves out (a camera tilt's
 keystone adds a speed-dependent curvature, +0.2 % at 0.5°); the tracked diameter depends on the
@@ -53,7 +55,7 @@ from scipy.ndimage import gaussian_filter1d, maximum_filter1d
 from ..numerics import linear_fit, robust_sigma
 
 #: Scale sources in the order in which they are preferred.
-SCALE_PRECEDENCE = ("given", "ruler", "gravity", "diameter")
+SCALE_PRECEDENCE = ("given", "points", "target", "ruler", "gravity", "diameter")
 #: A column belongs to the ruler if its mean |step| along it (smoothed over 1 px, so that noise does
 #: not hide broad bands) is this many times the image median; the ruler's columns then extend to
 #: either side while it is :data:`RULER_COLUMN_EXTENT` times the median, over gaps of up to
