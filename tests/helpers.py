@@ -299,3 +299,67 @@ def ball_frames(count=40, shape=(96, 160), radius=6.0, seed=0, step_px=(3.0, 0.0
         frames.append(np.repeat(grey[:, :, None], 3, axis=2))
         centres.append((x, y))
     return frames, np.array(centres)
+
+
+def real_recording(folder, name):
+    """Path of a real recording in :func:`real_data_dir` ``folder``; skips the test when it is not there."""
+    import pytest
+
+    directory = real_data_dir(folder)
+    if directory is None or not (directory / name).exists():
+        pytest.skip(f"real recording {folder}/{name} not found (../shared/realdata beside the repository, or "
+                    f"$DROPFIT_REALDATA)")
+    return directory / name
+
+
+def tracker_point_mass(trz_path):
+    """The hand-marked positions and the calibration of a Tracker project (.trz), read from its XML.
+
+    Returns
+    -------
+    (numpy.ndarray, dict)
+        Rows (Tracker frame index, x_px, y_px), image px with y down; and the first frame's
+        coordinate system ``{"x_origin_px", "y_origin_px", "angle_rad", "px_per_m"}`` and the
+        clip's step ``delta_t_s``.
+    """
+    import xml.etree.ElementTree as ElementTree
+    import zipfile
+
+    with zipfile.ZipFile(trz_path) as archive:
+        name = next(n for n in archive.namelist() if n.endswith(".trk"))
+        root = ElementTree.fromstring(archive.read(name))
+
+    def value(node, name):
+        found = next(p for p in node.findall("property") if p.get("name") == name)
+        return found if found.find("object") is not None or found.get("type") in ("array", "object") else float(found.text)
+
+    marks = []
+    for node in root.iter("object"):
+        if node.get("class", "").endswith("PointMass"):
+            for item in value(node, "framedata").findall("property"):
+                frame = item.find("object")
+                marks.append((int(item.get("name").strip("[]")), value(frame, "x"), value(frame, "y")))
+    coords = next(n for n in root.iter("object") if n.get("class", "").endswith("ImageCoordSystem$FrameData"))
+    control = next(n for n in root.iter("object") if n.get("class", "").endswith("ClipControl"))
+    return np.array(marks, float), {"x_origin_px": value(coords, "xorigin"), "y_origin_px": value(coords, "yorigin"),
+                                    "angle_rad": value(coords, "angle"), "px_per_m": value(coords, "xscale"),
+                                    "delta_t_s": value(control, "delta_t") / 1000.0}
+
+
+def phone_clip(preset, directory, seed=0, downscale=0.5, **changes):
+    """Render a phonesim preset (with ``changes`` to its :class:`phonesim.ClipConfig`) into ``directory``.
+
+    Returns
+    -------
+    (pathlib.Path, dict)
+        The clip, in the container the preset was described with, and its truth (``<stem>.truth.json``).
+    """
+    import dataclasses
+    import json
+
+    import phonesim
+
+    config = dataclasses.replace(phonesim.PRESETS[preset].scaled(downscale), **changes)
+    path = pathlib.Path(directory) / f"{preset}{phonesim.PRESET_SUFFIX[preset]}"
+    phonesim.render_clip(config, path, seed=seed)
+    return path, json.loads(path.with_suffix(".truth.json").read_text())

@@ -1,0 +1,52 @@
+"""A real clip filmed by someone else: Tracker's ball toss (../shared/realdata/tracker-balltoss).
+
+A small white ball tossed past a metre stick, a hand in view, 640 × 480 H.264 at 30 fps. Its Tracker
+project holds 11 hand-marked ball positions (every other frame of a 13-frame excerpt of the clip) and
+the stick's calibration; they are the truth the automatic track is held to.
+"""
+
+import av
+import numpy as np
+
+from dropfit.video.track import track_video
+from helpers import real_recording, tracker_point_mass
+
+
+def _grey_frames(path):
+    with av.open(str(path)) as container:
+        return [frame.to_ndarray(format="gray").astype(np.float32) for frame in container.decode(video=0)]
+
+
+def _marked_frames_in_clip(trz_path, clip_frames):
+    """The clip's frame index of each frame of the project's excerpt: the clip frame it matches best."""
+    import zipfile
+
+    import tempfile
+    from pathlib import Path
+
+    with zipfile.ZipFile(trz_path) as archive, tempfile.TemporaryDirectory() as directory:
+        name = next(n for n in archive.namelist() if n.endswith(".mp4"))
+        excerpt = Path(directory) / "excerpt.mp4"
+        excerpt.write_bytes(archive.read(name))
+        excerpt_frames = _grey_frames(excerpt)
+    return np.array([int(np.argmin([np.abs(frame - c).mean() for c in clip_frames])) for frame in excerpt_frames])
+
+
+def test_ball_toss_track_agrees_with_the_hand_marks():
+    clip = real_recording("tracker-balltoss", "BallTossOut.mp4")
+    trz = real_recording("tracker-balltoss", "BallToss.trz")
+    marks, _ = tracker_point_mass(trz)
+    in_clip = _marked_frames_in_clip(trz, _grey_frames(clip))
+    assert np.all(np.diff(in_clip) == 2)  # the excerpt is every other frame of the clip
+    # the hand marks' own scatter: their residual about a parabola in time (the toss is ballistic)
+    steps = marks[:, 0]
+    scatter = np.hypot(*(marks[:, k] - np.polyval(np.polyfit(steps, marks[:, k], 2), steps) for k in (1, 2)))
+    marks_scatter_px = float(np.sqrt(np.mean(scatter ** 2)) * np.sqrt(len(steps) / (len(steps) - 3)))
+
+    table = track_video(clip)
+    rows = table.iloc[in_clip[marks[:, 0].astype(int)]]
+    found = rows["quality"].isin(["ok", "blurred", "partial"]).to_numpy()
+    assert found.sum() >= len(marks) - 1, rows
+    distance = np.hypot(rows["x_px"].to_numpy() - marks[:, 1], rows["y_px"].to_numpy() - marks[:, 2])[found]
+    # the hand marks scatter by ~1.3 px (a click on a ball ~7 px across); the tracked centre is within that
+    assert np.sqrt(np.mean(distance ** 2)) <= 1.5 * marks_scatter_px, (distance, marks_scatter_px)
