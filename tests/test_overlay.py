@@ -16,7 +16,7 @@ from dropfit.video.overlay import (CURVE_COLOUR_BGR, LABEL_HEIGHT_PX, QUALITY_CO
                                    TILE_BOX_PX, annotate_frame, contact_sheet, decoded_frames, overlay_scene)
 from dropfit.video.track import QUALITY_OK, usable_rows
 
-from helpers import CLIP_BALL_RADIUS_M, assert_one_line_error, dropfit, render_drop_clip
+from helpers import CLIP_BALL_RADIUS_M, assert_one_line_error, dropfit, render_drop_clip, stage_args
 
 #: The drawn circle's centre must lie this close to the renderer's true centre, px.
 CENTRE_TOLERANCE_PX = 1.0
@@ -121,9 +121,15 @@ def test_a_refused_clip_gets_a_sheet_with_its_reason(drop, tmp_path):
     scene = stages.scene_from_results(out)
     assert scene.caption[-1].startswith(f"refused: {video}: not analysable: impact 1: the flight before it lasts")
     assert scene.flights is None and scene.scale_m_per_px is not None
-    assert main(["overlay", video, "--out", str(tmp_path / "sheet.png"), "--results", str(out)]) == 0
-    image = cv2.imread(str(tmp_path / "sheet.png"))
+    sheet = out / "contact_sheet.png"
+    assert main(["overlay", video, "--out", str(sheet), "--results", str(out)]) == 0
+    image = cv2.imread(str(sheet))
     assert image.shape[1] == SHEET_COLUMNS * TILE_BOX_PX[0]
+    # the report's failure page shows the sheet under the reason
+    report = [str(arg) for arg in stage_args(out, video)["report"]]
+    assert main([*report, "--contact-sheet", str(sheet), "--record-failure"]) == 0
+    page = (out / "report.html").read_text(encoding="utf-8")
+    assert "not analysable" in page and "contact sheet of the video" in page
 
 
 def test_a_clip_refused_while_measured_keeps_its_tracked_table(drop, tmp_path, monkeypatch):
