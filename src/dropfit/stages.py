@@ -80,6 +80,8 @@ def overlay(video, sheet_path, clip_path=None, results_dir=None, ball=None, sett
     """
     from .video.overlay import SHEET_TILES, contact_sheet, write_annotated_clip
 
+    if tiles is not None and tiles < 1:
+        raise InputError(f"{shown_path(video)}: --tiles must be at least 1, got {tiles}")
     if results_dir is not None:
         scene = scene_from_results(results_dir)
     else:

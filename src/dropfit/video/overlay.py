@@ -20,6 +20,7 @@ from fractions import Fraction
 
 import numpy as np
 
+from ..errors import InputError, shown_path
 from ..physics import flight_height
 from .opencv import cv2
 from .track import (QUALITY_BLURRED, QUALITY_DUPLICATE, QUALITY_LOST, QUALITY_OCCLUDED, QUALITY_OK,
@@ -91,7 +92,10 @@ def frame_rate(path):
 
     with av.open(str(path)) as container:
         stream = container.streams.video[0]
-        return Fraction(stream.average_rate or stream.guessed_rate or 30)
+        rate = stream.average_rate or stream.guessed_rate
+    if not rate:
+        raise InputError(f"{shown_path(path)}: the video states no frame rate, so no clip can be written at its rate")
+    return Fraction(rate)
 
 
 # --- what is drawn --------------------------------------------------------------------------------
