@@ -3,7 +3,8 @@
 # Table of contents only; the rules live in workflow/rules/, one file per stage:
 #   synth    data/synthetic/{scenario}.csv + .truth.json   synthetic drop tests with ground truth
 #   synth_video  results/video/{clip}.avi + truth           synthetic drop-test videos
-#   measure  results/{sample}/trajectory.nc                 height log -> SI trajectory
+#   measure  results/{sample}/trajectory.nc (+ track.csv for a video)   recording -> SI trajectory
+#   overlay  results/{sample}/contact_sheet.png             a video's tracked ball drawn on its frames
 #   analyse  results/{sample}/{impacts,flights}.csv, analysis.json
 #   fit      results/{sample}/fit.json                      restitution fit + ITF verdict
 #   report   results/{sample}/report.{html,png}, results/batch/summary.{csv,html}

@@ -1,5 +1,6 @@
-"""Helpers the tests share (tests import these, never each other): synthetic height logs, bad logs,
-running the ``dropfit`` command line, drawn calibration images (rulers, bands) and the real data's place."""
+"""Helpers the tests share (tests import these, never each other): synthetic height logs, bad logs, small
+synthetic video clips, running the ``dropfit`` command line, drawn calibration images (rulers, bands),
+encoded clips, the real data's place and phonesim clips."""
 
 import os
 import pathlib
@@ -124,6 +125,8 @@ DROP_BALL = {"ball_radius_m": 0.025, "ball_mass_kg": 0.05, "ball_type": "rubber"
 #: The files ``dropfit run`` and the workflow write per recording.
 RECORDING_FILES = ("trajectory.nc", "impacts.csv", "flights.csv", "analysis.json", "fit.json", "report.html",
                    "report.png")
+#: What ``dropfit run`` and the workflow write for a video besides: the tracked table and the contact sheet.
+VIDEO_RECORDING_FILES = ("track.csv", "contact_sheet.png")
 #: Fields of fit.json that name the recording rather than measure it (results are compared without them).
 PROVENANCE_FIELDS = ("source", "sample_id")
 
@@ -363,3 +366,23 @@ def phone_clip(preset, directory, seed=0, downscale=0.5, **changes):
     path = pathlib.Path(directory) / f"{preset}{phonesim.PRESET_SUFFIX[preset]}"
     phonesim.render_clip(config, path, seed=seed)
     return path, json.loads(path.with_suffix(".truth.json").read_text())
+#: The small clip of :func:`render_drop_clip`: image scale (px/m), floor row (px) and the ball's radius (m).
+CLIP_PX_PER_M = 200.0
+CLIP_FLOOR_ROW_PX = 205.0
+CLIP_BALL_RADIUS_M = 0.025
+
+
+def render_drop_clip(path, truth, fps, seed=0):
+    """A 1.7 s, 160 × 220 px MJPEG clip of ``truth`` (a ball of :data:`CLIP_BALL_RADIUS_M`: 5 px; sensor
+    noise σ 2 grey levels) rendered by :mod:`dropfit.video_synth`.
+
+    Returns
+    -------
+    pandas.DataFrame
+        The renderer's per-frame truth (``x_px``, ``y_px`` …; ``attrs["video_path"]``: the clip).
+    """
+    from dropfit.video_synth import Camera, Scene, render_video
+
+    camera = Camera(160, 220, fps, None, px_per_m=CLIP_PX_PER_M, image_row_of_floor_px=CLIP_FLOOR_ROW_PX,
+                    noise_sigma=2.0)
+    return render_video(truth, camera, Scene(), 1.7, seed, path)

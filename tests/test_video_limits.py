@@ -10,14 +10,16 @@ from dropfit.analysis import analyse_bounces
 from dropfit.contact import LinearContact
 from dropfit.errors import InputError
 from dropfit.synth import simulate_drop
-from dropfit.video_synth import Camera, Scene, render_video
+from dropfit.video.track import TrackedVideo
 from dropfit.videolog import trajectory_from_video
+
+from helpers import CLIP_BALL_RADIUS_M, CLIP_FLOOR_ROW_PX, CLIP_PX_PER_M, render_drop_clip
 
 E_TOLERANCE = 0.002  # dimensionless: the sweep's clips above the limits are within 3e-4
 NOISE_TOLERANCE = 0.15  # relative, robust noise estimate from ~100 third differences
-PX_PER_M = 200.0  # image scale of the synthetic tables and clips, px/m
-FLOOR_ROW_PX = 205.0  # image row of the floor, px
-BALL_RADIUS_M = 0.025
+PX_PER_M = CLIP_PX_PER_M  # image scale of the synthetic tables and clips, px/m
+FLOOR_ROW_PX = CLIP_FLOOR_ROW_PX  # image row of the floor, px
+BALL_RADIUS_M = CLIP_BALL_RADIUS_M
 SPAN_TOLERANCE_FRAMES = 0.5  # frame intervals: fitted apex and contact times are good to a few ms
 
 
@@ -44,9 +46,8 @@ def tracked_table(truth, fps, duration_s=1.7, radius_px=5.0, noise_px=0.02, clea
 
 def refusal_of(tmp_path, monkeypatch, table):
     """The one-line message with which trajectory_from_video refuses ``table`` as a tracked video."""
-    monkeypatch.setattr("dropfit.video.track.track_video_and_background", lambda path, capture_fps=None: (table, None))
     with pytest.raises(InputError) as caught:
-        trajectory_from_video(tmp_path / "clip.avi", ball_radius_m=BALL_RADIUS_M)
+        trajectory_from_video(tmp_path / "clip.avi", ball_radius_m=BALL_RADIUS_M, tracked=TrackedVideo(table, None))
     return str(caught.value)
 
 
@@ -151,10 +152,8 @@ def test_a_recording_with_too_few_clean_frames_is_refused(tmp_path, monkeypatch,
 
 
 def render(tmp_path, truth, fps, seed=0):
-    """A 160 × 220 px clip of ``truth`` (ball radius 5 px, noise σ 2 grey levels); returns its path."""
-    camera = Camera(160, 220, fps, None, px_per_m=PX_PER_M, image_row_of_floor_px=FLOOR_ROW_PX, noise_sigma=2.0)
-    frames = render_video(truth, camera, Scene(), 1.7, seed, tmp_path / "clip.avi")
-    return frames.attrs["video_path"]
+    """A 160 × 220 px clip of ``truth`` (:func:`helpers.render_drop_clip`); returns its path."""
+    return render_drop_clip(tmp_path / "clip.avi", truth, fps, seed).attrs["video_path"]
 
 
 def measure_and_analyse(tmp_path, video):

@@ -16,7 +16,7 @@ import yaml
 from dropfit import analyse_recording
 from dropfit.settings import settings_from_config, stage_arguments
 
-from helpers import RECORDING_FILES, dropfit, write_no_bounce_log
+from helpers import RECORDING_FILES, VIDEO_RECORDING_FILES, dropfit, write_no_bounce_log
 
 REPO = Path(__file__).resolve().parents[1]
 #: Time limit of a whole workflow run (about 25 s on a laptop).
@@ -87,14 +87,18 @@ def test_lint_reports_only_conda_and_container_hints(tmp_path):
 
 
 def test_dry_run_plans_every_sample(tmp_path):
-    """``snakemake -n`` with the default profile succeeds and plans one measure job per sample."""
+    """``snakemake -n`` with the default profile succeeds and plans one measure job per sample (a video's
+    also writes its tracked table) and one overlay job per video."""
     root = copy_workflow(tmp_path)
     result = snakemake("-n", "--profile", "workflow/profiles/default", cwd=root)
     assert result.returncode == 0, result.stderr
     output = result.stdout + result.stderr
     counts = dict(re.findall(r"^(\w+)\s+(\d+)$", output, flags=re.MULTILINE))
     sheet = sample_sheet(root)
-    for rule in ("measure", "analyse", "fit", "report"):
+    videos = int(np.count_nonzero(sheet["kind"] == "video"))
+    assert int(counts["measure"]) + int(counts["measure_video"]) == len(sheet)
+    assert int(counts["measure_video"]) == int(counts["overlay"]) == videos > 0
+    for rule in ("analyse", "fit", "report"):
         assert int(counts[rule]) == len(sheet)
     assert int(counts["summary"]) == 1
     assert int(counts["qc"]) == sheet["batch"].nunique()
@@ -126,8 +130,12 @@ def test_batch_with_bad_recordings(batch_run):
     root = batch_run
     good = good_samples(root)
 
+    videos = set(sample_sheet(root).query("kind == 'video'")["sample_id"])
     for sample in good:
         assert (root / "results" / sample / "report.html").is_file()
+        if sample in videos:  # the report shows what was tracked
+            assert (root / "results" / sample / "contact_sheet.png").read_bytes().startswith(b"\x89PNG")
+            assert "contact sheet of the video" in (root / "results" / sample / "report.html").read_text("utf-8")
         fit = json.loads((root / "results" / sample / "fit.json").read_text(encoding="utf-8"))
         assert fit["status"] == "ok", fit
         assert fit["sample_id"] == sample
@@ -196,11 +204,13 @@ def test_run_and_a_notebook_give_the_workflows_numbers(batch_run, sample, monkey
     assert result.returncode == 0, result.stderr
     assert result.stdout.startswith(f"{sample}: e = ") and len(result.stdout.splitlines()) == 1
     workflow = root / "results" / sample
-    for name in ("impacts.csv", "flights.csv"):
+    video = row["kind"] == "video"
+    for name in ("impacts.csv", "flights.csv") + (("track.csv",) if video else ()):
         assert (out / name).read_bytes() == (workflow / name).read_bytes(), name
     run_fit = json.loads((out / "fit.json").read_text(encoding="utf-8"))
     assert run_fit == json.loads((workflow / "fit.json").read_text(encoding="utf-8"))
-    assert sorted(path.name for path in out.iterdir()) == sorted(RECORDING_FILES)
+    assert sorted(path.name for path in out.iterdir()) == sorted(RECORDING_FILES
+                                                                 + (VIDEO_RECORDING_FILES if video else ()))
 
     ball, settings = settings_from_config(config, row)
     monkeypatch.chdir(root)  # the recording's path as the workflow gives it (messages quote it)

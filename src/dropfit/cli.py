@@ -18,6 +18,7 @@ import os
 import sys
 import traceback
 import warnings
+from pathlib import Path
 
 from . import stages
 from .errors import InputError, one_line, shown, shown_path
@@ -58,7 +59,21 @@ def _parser():
     measure.add_argument("log", help="height log CSV, or a video (.avi, .mp4, .mov, .mkv, .m4v)")
     measure.add_argument("--out", required=True, help="trajectory NetCDF to write")
     measure.add_argument("--sample-id")
+    measure.add_argument("--track", help="a video's tracked table to write (CSV: every frame's ball in px and its "
+                                         "quality flag); written even when the clip is then refused")
     _add_options(measure, "measure")
+
+    overlay = stage("overlay", "what was tracked, drawn on a video: a contact sheet (PNG) of frames at the release, "
+                               "apexes, impacts and the end, and optionally every frame as an annotated H.264 clip")
+    overlay.add_argument("video", help="the video (.avi, .mp4, .mov, .mkv, .m4v)")
+    overlay.add_argument("--out", required=True, help="contact sheet to write (PNG)")
+    overlay.add_argument("--clip", help="annotated clip to write (H.264 MP4)")
+    overlay.add_argument("--results", help="the recording's results directory (track.csv, trajectory.nc, flights.csv, "
+                                           "impacts.csv, analysis.json, as dropfit measure --track and analyse write "
+                                           "them); without it the video is tracked and analysed with the options")
+    overlay.add_argument("--tiles", type=int, help="frames on the contact sheet (default 16)")
+    overlay.add_argument("--sample-id")
+    _add_options(overlay, "run")
 
     analyse = stage("analyse", "trajectory → impacts and flights tables (CSV) and analysis summary (JSON)")
     analyse.add_argument("trajectory")
@@ -76,6 +91,8 @@ def _parser():
     report = stage("report", "per-recording HTML report and PNG figure")
     for name in ("trajectory", "flights", "impacts", "analysis", "fit", "html", "figure"):
         report.add_argument(f"--{name}", required=True)
+    report.add_argument("--contact-sheet", help="a video's contact sheet (PNG, dropfit overlay) to show; a failed "
+                                                "report's page shows it too")
 
     summary = sub.add_parser("summary", help="batch summary table (CSV, HTML) over fit results")
     summary.add_argument("fits", nargs="+", help="fit.json files, one per recording")
@@ -126,13 +143,16 @@ def _run(args):
     if args.command == "run":
         print(stages.run(args.recording, args.out, ball, settings, args.sample_id).summary())
     elif args.command == "measure":
-        stages.measure(args.log, args.out, ball, settings, args.sample_id)
+        stages.measure(args.log, args.out, ball, settings, args.sample_id, args.track)
+    elif args.command == "overlay":
+        stages.overlay(args.video, args.out, args.clip, args.results, ball, settings, args.sample_id, args.tiles)
     elif args.command == "analyse":
         stages.analyse(args.trajectory, args.impacts, args.flights, args.summary, settings)
     elif args.command == "fit":
         stages.fit(args.analysis, args.impacts, args.out, settings, ball.type)
     elif args.command == "report":
-        stages.report(args.trajectory, args.flights, args.impacts, args.analysis, args.fit, args.html, args.figure)
+        stages.report(args.trajectory, args.flights, args.impacts, args.analysis, args.fit, args.html, args.figure,
+                      args.contact_sheet)
     elif args.command == "summary":
         stages.summary(args.fits, args.csv, args.html)
     elif args.command == "qc":
@@ -140,18 +160,21 @@ def _run(args):
 
 
 #: The outputs of each stage, by argument name.
-_OUTPUTS = {"measure": ["out"], "analyse": ["impacts", "flights", "summary"], "fit": ["out"],
+_OUTPUTS = {"measure": ["out", "track"], "overlay": ["out", "clip"], "analyse": ["impacts", "flights", "summary"], "fit": ["out"],
             "report": ["html", "figure"], "summary": ["csv", "html"], "qc": ["html", "figure", "csv"]}
+#: Outputs a stage writes whole before a later step of it may fail, and keeps then: a clip refused after
+#: tracking keeps its tracked table, which shows why.
+_KEPT_ON_FAILURE = {"measure": ["track"]}
 #: The input each stage's messages name: the recording, the trajectory, the analysis, the fit results.
-_INPUTS = {"synth": "scenarios", "synth-video": "name", "run": "recording", "measure": "log",
+_INPUTS = {"synth": "scenarios", "synth-video": "name", "run": "recording", "measure": "log", "overlay": "video",
            "analyse": "trajectory", "fit": "analysis", "report": "trajectory", "summary": "fits", "qc": "fits"}
 
 
 def _outputs(args):
-    """The files the stage writes (``run``: the files of :data:`dropfit.stages.RUN_FILES` in ``--out``)."""
+    """The files the stage writes (``run``: the files of :func:`dropfit.stages.run_files` in ``--out``)."""
     if args.command == "run":
-        return [os.path.join(args.out, name) for name in stages.RUN_FILES]
-    return [getattr(args, name) for name in _OUTPUTS.get(args.command, [])]
+        return [os.path.join(args.out, name) for name in stages.run_files(args.recording)]
+    return [getattr(args, name) for name in _OUTPUTS.get(args.command, []) if getattr(args, name) is not None]
 
 
 def _input_name(args):
@@ -177,6 +200,7 @@ def main(argv=None):
     record = getattr(args, "record_failure", False)
     outputs = _outputs(args)
     before = {path: _stat(path) for path in outputs}
+    keepable = {getattr(args, name) for name in _KEPT_ON_FAILURE.get(args.command, [])}
     try:
         with warnings.catch_warnings():
             if not sys.warnoptions:  # numerical warnings are for developers (python -W shows them)
@@ -192,8 +216,9 @@ def main(argv=None):
                            f"({type(error).__name__}: {shown(error)}); please report it with this file")
     else:
         return 0
+    kept = {path for path in outputs if path in keepable and _stat(path) != before[path]}
     for path in outputs:  # an output this run began to write is not whole: remove it
-        if _stat(path) != before[path]:
+        if _stat(path) != before[path] and path not in kept:
             try:
                 os.remove(path)
             except OSError:
@@ -201,9 +226,20 @@ def main(argv=None):
     print(f"dropfit: error: {message}", file=sys.stderr)
     if not record:
         return 1
+    figure = _failure_figure(args)
     for path in outputs:
-        write_failure(path, message)
+        if path not in kept:
+            write_failure(path, message, figure)
     return 0
+
+
+def _failure_figure(args):
+    """The PNG a failure record's page shows: a refused video's contact sheet, given to ``report``."""
+    path = getattr(args, "contact_sheet", None)
+    try:
+        return Path(path).read_bytes() if path else None
+    except OSError:  # the failure's own message says what is missing
+        return None
 
 
 if __name__ == "__main__":

@@ -144,8 +144,9 @@ def sha256_of(path):
     return digest.hexdigest()
 
 
-def write_failure(path, message):
-    """Write a failure record carrying ``message`` to ``path``; its suffix decides the format."""
+def write_failure(path, message, figure_png=None):
+    """Write a failure record carrying ``message`` to ``path``; its suffix decides the format. An HTML
+    record shows ``figure_png`` (PNG bytes: a refused video's contact sheet) under the message."""
     path = Path(path)
     message = one_line(message)
     suffix = path.suffix.lower()
@@ -159,12 +160,16 @@ def write_failure(path, message):
         with atomic_output(path) as tmp:
             xr.Dataset(attrs={"status": FAILED, "error": message}).to_netcdf(tmp)
     elif suffix in (".html", ".htm"):
+        import base64
         from html import escape
 
+        figure = "" if figure_png is None else \
+            (f"<p>What was tracked:</p><img style='max-width: 100%' alt='contact sheet of the video' "
+             f"src='data:image/png;base64,{base64.b64encode(figure_png).decode('ascii')}'>\n")
         write_text(
             path,
             "<!doctype html><meta charset='utf-8'><title>dropfit: failed</title>"
-            f"<h1>Analysis failed</h1><p>{escape(message)}</p>\n",
+            f"<h1>Analysis failed</h1><p>{escape(message)}</p>\n{figure}",
         )
     elif suffix == ".png":
         import matplotlib

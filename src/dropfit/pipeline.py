@@ -32,14 +32,43 @@ from .heightlog import nominal_drag_of, trajectory_from_log
 from .result import RecordingResult
 from .settings import Ball, Settings, split_options
 from .video.track import TRACKED_CENTRE_CORRELATION
-from .videolog import is_video, scale_targets_of, trajectory_from_video
+from .videolog import VIDEO_SUFFIXES, is_video, scale_targets_of, trajectory_from_video
 
 #: Settings that apply to measuring a recording, not to an already measured trajectory.
 MEASURE_ONLY_SETTINGS = ("scale_m_per_px", "ruler_tick_m", "scale_points_px", "scale_distance_m", "marker_size_m",
                          "board_square_m", "board_inner_corners", "capture_fps")
 
 
-def measure_recording(path, ball=None, settings=None, *, sample_id=None):
+def track_recording(path, settings=None):
+    """A video → its tracked table (every frame's ball in px and quality flag), as :func:`measure_recording`
+    tracks it.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        The video.
+    settings : dropfit.settings.Settings, optional
+        The capture rate (frames/s) of a slow-motion file.
+
+    Returns
+    -------
+    dropfit.video.track.TrackedVideo
+        The tracked table (as :func:`dropfit.video.track.track_video`) and the background it was
+        tracked against.
+
+    Raises
+    ------
+    dropfit.errors.InputError
+        For a file that is not a readable video, or one in which no ball is found.
+    """
+    from .video.track import track_video_and_background
+
+    if not is_video(path):
+        raise InputError(f"{shown_path(path)}: is not a video ({', '.join(VIDEO_SUFFIXES)}); only a video is tracked")
+    return track_video_and_background(path, capture_fps=(settings or Settings()).capture_fps)
+
+
+def measure_recording(path, ball=None, settings=None, *, sample_id=None, tracked=None):
     """Height log or video → trajectory (heights in m, up; dropouts flagged), without writing a file.
 
     Parameters
@@ -52,6 +81,8 @@ def measure_recording(path, ball=None, settings=None, *, sample_id=None):
         The scale (m/px), ruler tick (m), floor (m), capture rate (frames/s) and the site's g.
     sample_id : str, optional
         Name of the recording, kept in the attributes.
+    tracked : pandas.DataFrame, optional
+        A video's table from :func:`track_recording`, when it is tracked already.
 
     Returns
     -------
@@ -76,7 +107,7 @@ def measure_recording(path, ball=None, settings=None, *, sample_id=None):
     if is_video(path):
         trajectory = trajectory_from_video(path, ball.radius_m, scale and abs(scale), settings.capture_fps,
                                            gravity.value_m_s2, attrs, settings.ruler_tick_m,
-                                           scale_targets_of(settings))
+                                           scale_targets_of(settings), tracked)
     else:
         trajectory = trajectory_from_log(path, scale_m_per_px=scale, gravity_m_s2=gravity.value_m_s2, attrs=attrs,
                                          height_reference=settings.height_reference)
@@ -223,8 +254,9 @@ def _given_trajectory(trajectory, ball, settings, sample_id):
     return trajectory
 
 
-def process_recording(recording, ball=None, settings=None, *, sample_id=None):
-    """:func:`analyse_recording` with the ball and the settings as objects."""
+def process_recording(recording, ball=None, settings=None, *, sample_id=None, tracked=None):
+    """:func:`analyse_recording` with the ball and the settings as objects (and a video's table from
+    :func:`track_recording`, when it is tracked already)."""
     import xarray as xr
 
     ball = ball or Ball()
@@ -232,7 +264,7 @@ def process_recording(recording, ball=None, settings=None, *, sample_id=None):
     if isinstance(recording, xr.Dataset):
         trajectory = _given_trajectory(recording, ball, settings, sample_id)
     elif isinstance(recording, (str, os.PathLike)):
-        trajectory = measure_recording(recording, ball, settings, sample_id=sample_id)
+        trajectory = measure_recording(recording, ball, settings, sample_id=sample_id, tracked=tracked)
     else:
         raise TypeError(f"a recording is a path or a trajectory (xarray.Dataset), not {type(recording).__name__}")
     analysis = analyse_trajectory(trajectory, settings)

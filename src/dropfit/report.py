@@ -1,7 +1,7 @@
 """Per-recording HTML report with its figure, and the batch summary table.
 
 The report figures are drawn here and only here (the failure-record PNG of :mod:`dropfit.files`
-aside). Every output is written whole or not at all (:func:`dropfit.files.atomic_output`).
+and a video's contact sheet, drawn on its frames by :mod:`dropfit.video.overlay`, aside). Every output is written whole or not at all (:func:`dropfit.files.atomic_output`).
 """
 
 from __future__ import annotations
@@ -350,43 +350,13 @@ def _scale_rows(scale, time_base):
     return rows
 
 
-def _video_frame_html(trajectory):
-    """For a video: one frame with the tracked ball, the floor line and a 10 cm scale bar drawn on it."""
-    attrs = trajectory.attrs
-    if "video" not in attrs or "x" not in trajectory:
+def _contact_sheet_html(png):
+    """For a video: the contact sheet of what was tracked (:mod:`dropfit.video.overlay`), if there is one."""
+    if png is None:
         return ""
-    from .errors import InputError
-    from .video.decode import VideoFile
-    from .video.opencv import cv2
-
-    scale = float(attrs["scale_m_per_px"])
-    tracked = np.flatnonzero(np.isfinite(trajectory["y"].values))
-    # the frame where the ball is highest after release shows it clear of hand and floor
-    index = int(tracked[len(tracked) // 3 + int(np.argmax(trajectory["y"].values[tracked[len(tracked) // 3:]]))]) \
-        if tracked.size else 0
-    try:
-        with VideoFile(attrs["video"]) as video:
-            frame = video.frame(index)
-    except (InputError, OSError):
-        frame = None
-    if frame is None:
-        return f"<p>The video frame {index} could not be read back for the overlay.</p>"
-    x_px = float(trajectory["x"].values[index]) / scale
-    y_px = -float(trajectory["y"].values[index]) / scale
-    radius_px = float(trajectory["radius"].values[index]) / scale
-    green, red = (40, 200, 40), (40, 40, 230)
-    cv2.circle(frame, (round(x_px), round(y_px)), round(radius_px), green, 2, cv2.LINE_AA)
-    cv2.drawMarker(frame, (round(x_px), round(y_px)), green, cv2.MARKER_CROSS, 12, 2)
-    if "floor_row_px" in attrs:
-        row = round(float(attrs["floor_row_px"]))
-        cv2.line(frame, (0, row), (frame.shape[1] - 1, row), red, 1, cv2.LINE_AA)
-    bar_px = 0.1 / scale
-    cv2.line(frame, (20, 30), (20 + round(bar_px), 30), red, 3)
-    cv2.putText(frame, "10 cm", (20, 22), cv2.FONT_HERSHEY_SIMPLEX, 0.6, red, 2, cv2.LINE_AA)
-    ok, png = cv2.imencode(".png", frame)
-    return (f"<p>Frame {index} at {float(trajectory['time'].values[index]):.4f} s: tracked ball (green), floor "
-            f"(red line), 10 cm at the calibrated scale {1e3 * scale:.4f} mm/px (red bar).</p>\n"
-            + _png_img(png.tobytes(), "video frame with the tracked ball"))
+    return ("<p>What was tracked: frames at the release, the apexes, around every impact and at the end, the "
+            "ball's circle coloured by its quality flag, the fitted flights, the floor and a scale bar.</p>\n"
+            + _png_img(png, "contact sheet of the video with the tracked ball"))
 
 
 _PARAMETER_LABELS = {"e0": "e₀", "slope_s_m": "a", "coefficient": "b", "a": "a", "exponent": "p"}
@@ -611,7 +581,7 @@ def _section_notes(fit):
     return counts + "\n" + listed
 
 
-def recording_report_html(trajectory, flights, impacts, fit, png):
+def recording_report_html(trajectory, flights, impacts, fit, png, contact_sheet_png=None):
     """The self-contained per-recording HTML report.
 
     Parameters
@@ -624,6 +594,8 @@ def recording_report_html(trajectory, flights, impacts, fit, png):
         Fit result.
     png : bytes
         The report figure, embedded as base64.
+    contact_sheet_png : bytes, optional
+        A video's contact sheet (PNG), embedded under the recording.
 
     Returns
     -------
@@ -632,7 +604,7 @@ def recording_report_html(trajectory, flights, impacts, fit, png):
     """
     sample_id = fit.get("sample_id") or trajectory.attrs.get("sample_id") or ""
     sections = [
-        ("Recording", _section_recording(fit) + _video_frame_html(trajectory)),
+        ("Recording", _section_recording(fit) + _contact_sheet_html(contact_sheet_png)),
         ("Result", _section_result(fit)),
         ("Restitution models", _section_models(fit)),
         ("ITF verdict", _section_itf(fit)),
@@ -649,7 +621,7 @@ def recording_report_html(trajectory, flights, impacts, fit, png):
                       f"{len(flights)} flights fitted.</p>", _sections_html(sections))
 
 
-def write_recording_report(trajectory, flights, impacts, analysis, fit, html_path, figure_path):
+def write_recording_report(trajectory, flights, impacts, analysis, fit, html_path, figure_path, contact_sheet_png=None):
     """Write the report figure (PNG) and the self-contained HTML report of one recording.
 
     Parameters
@@ -665,12 +637,15 @@ def write_recording_report(trajectory, flights, impacts, analysis, fit, html_pat
         Fit result (e, theory checks, ITF verdict, provenance).
     html_path, figure_path : str or pathlib.Path
         Where to write the HTML report and the PNG figure.
+    contact_sheet_png : bytes, optional
+        A video's contact sheet (PNG, :func:`dropfit.stages.overlay`), shown in the report.
     """
     png = _figure_png(trajectory, flights, impacts, analysis, fit)
     with atomic_output(figure_path) as tmp:
         tmp.write_bytes(png)
     with atomic_output(html_path) as tmp:
-        tmp.write_text(recording_report_html(trajectory, flights, impacts, fit, png), encoding="utf-8")
+        tmp.write_text(recording_report_html(trajectory, flights, impacts, fit, png, contact_sheet_png),
+                       encoding="utf-8")
 
 
 # --- batch summary ------------------------------------------------------------------------------

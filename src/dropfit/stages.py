@@ -16,14 +16,15 @@ from pathlib import Path
 
 import yaml
 
-from .errors import InputError, one_line
-from .files import atomic_output, write_json, write_table, write_text
+from .errors import InputError, one_line, shown_path
+from .files import atomic_output, read_bytes, read_table, write_json, write_table, write_text
 from .fitrecord import analysis_summary, fit_summary
 from .heightlog import read_trajectory
 from .inputs import read_analysis, read_fit, read_flights, read_impacts, read_report_analysis
-from .pipeline import analyse_trajectory, measure_recording, process_recording
+from .pipeline import analyse_trajectory, measure_recording, process_recording, track_recording
 from .settings import Settings
 from .synth import scenario_recordings, synthesize
+from .videolog import is_video
 
 
 def synth(scenarios_path, name, log_path, truth_path, seed=None):
@@ -54,9 +55,87 @@ def synth_video(name, out_dir, seed=0):
     make_default_videos(out_dir, seed=seed, names=[name])
 
 
-def measure(log_path, out_path, ball=None, settings=None, sample_id=None):
-    """Height log or video → trajectory NetCDF (:func:`dropfit.pipeline.measure_recording`)."""
-    write_trajectory(out_path, measure_recording(log_path, ball, settings, sample_id=sample_id))
+def measure(log_path, out_path, ball=None, settings=None, sample_id=None, track_path=None):
+    """Height log or video → trajectory NetCDF (:func:`dropfit.pipeline.measure_recording`).
+
+    With ``track_path`` (a video only) the tracked table (every frame's ball in px and quality flag) is
+    written there first, so that a clip refused after tracking still shows what was tracked.
+    """
+    tracked = None
+    if track_path is not None:
+        tracked = track_recording(log_path, settings)
+        write_table(track_path, tracked.table)
+    write_trajectory(out_path, measure_recording(log_path, ball, settings, sample_id=sample_id, tracked=tracked))
+
+
+def overlay(video, sheet_path, clip_path=None, results_dir=None, ball=None, settings=None, sample_id=None,
+            tiles=None):
+    """What was tracked, drawn on the video: a contact sheet (PNG) and, with ``clip_path``, an annotated
+    H.264 clip (:mod:`dropfit.video.overlay`).
+
+    With ``results_dir`` the tracked table, trajectory and analysis are read from the files the workflow
+    writes there (``track.csv``, ``trajectory.nc``, ``flights.csv``, ``impacts.csv``, ``analysis.json``);
+    otherwise the video is tracked and analysed here with ``ball`` and ``settings``. A clip refused after
+    tracking gets its sheet with the reason as a caption.
+    """
+    from .video.overlay import SHEET_TILES, contact_sheet, write_annotated_clip
+
+    if tiles is not None and tiles < 1:
+        raise InputError(f"{shown_path(video)}: --tiles must be at least 1, got {tiles}")
+    if results_dir is not None:
+        scene = scene_from_results(results_dir)
+    else:
+        tracked = track_recording(video, settings)
+        scene = refusal_aware_scene(
+            tracked.table, lambda: measure_recording(video, ball, settings, sample_id=sample_id, tracked=tracked),
+            lambda trajectory: _analysis_parts(analyse_trajectory(trajectory, settings), trajectory.attrs))
+    image, _ = contact_sheet(video, scene, tiles or SHEET_TILES, title=shown_path(video))
+    write_png(sheet_path, image)
+    if clip_path is not None:
+        with atomic_output(clip_path) as tmp:
+            write_annotated_clip(video, tmp, scene)
+
+
+def refusal_aware_scene(table, trajectory_of, analysis_of):
+    """The overlay's scene (:func:`dropfit.video.overlay.overlay_scene`) of a tracked ``table``: the
+    trajectory from ``trajectory_of()`` and (flights, impacts, analysis summary) from
+    ``analysis_of(trajectory)``; an :class:`InputError` of either (a refusal) becomes the caption."""
+    from .video.overlay import overlay_scene
+
+    trajectory = None
+    try:
+        trajectory = trajectory_of()
+        return overlay_scene(table, trajectory, *analysis_of(trajectory))
+    except InputError as error:
+        return overlay_scene(table, trajectory, reason=one_line(str(error)))
+
+
+def _analysis_parts(analysis, trajectory_attrs):
+    """(flights, impacts, summary as analysis.json holds it) of an analysis."""
+    return analysis.flights, analysis.impacts, analysis_summary(analysis, trajectory_attrs)
+
+
+def scene_from_results(directory):
+    """The overlay's scene (:class:`dropfit.video.overlay.OverlayScene`) from a recording's results directory
+    (``track.csv``, ``trajectory.nc``, ``flights.csv``, ``impacts.csv``, ``analysis.json``); a failure record
+    there is the clip's refusal and becomes the caption."""
+    directory = Path(directory)
+    table = read_table(directory / "track.csv", "tracked table (track.csv) written by dropfit measure --track")
+    return refusal_aware_scene(
+        table, lambda: read_trajectory(directory / "trajectory.nc"),
+        lambda _: (read_flights(directory / "flights.csv"), read_impacts(directory / "impacts.csv"),
+                   read_report_analysis(directory / "analysis.json")))
+
+
+def write_png(path, image):
+    """Write a blue-green-red image (numpy array) as PNG to ``path`` atomically."""
+    from .video.opencv import cv2
+
+    ok, png = cv2.imencode(".png", image)
+    if not ok:
+        raise ValueError(f"an image of shape {image.shape} could not be encoded as PNG")
+    with atomic_output(path) as tmp:
+        tmp.write_bytes(png.tobytes())
 
 
 def analyse(trajectory_path, impacts_path, flights_path, summary_path, settings=None):
@@ -79,10 +158,17 @@ def fit(analysis_path, impacts_path, out_path, settings=None, ball_type=None):
 #: The files ``dropfit run`` writes into its output directory: the outputs of measure, analyse, fit
 #: and report, named as the workflow names them.
 RUN_FILES = ("trajectory.nc", "impacts.csv", "flights.csv", "analysis.json", "fit.json", "report.html", "report.png")
+#: What ``dropfit run`` writes for a video besides: the tracked table and the contact sheet.
+VIDEO_RUN_FILES = ("track.csv", "contact_sheet.png")
+
+
+def run_files(recording):
+    """The names of the files ``dropfit run`` writes for ``recording`` (a path)."""
+    return RUN_FILES + (VIDEO_RUN_FILES if is_video(recording) else ())
 
 
 def run(recording, out_dir, ball=None, settings=None, sample_id=None):
-    """One recording → every file the workflow writes for it (:data:`RUN_FILES`) in ``out_dir``, whole or
+    """One recording → every file the workflow writes for it (:func:`run_files`) in ``out_dir``, whole or
     not at all: they are made in a temporary directory inside ``out_dir`` and moved in only when all
     are made.
 
@@ -91,18 +177,23 @@ def run(recording, out_dir, ball=None, settings=None, sample_id=None):
     dropfit.result.RecordingResult
         The result (:func:`dropfit.pipeline.process_recording`); ``fit.json`` is its ``to_dict()``.
     """
-    result = process_recording(recording, ball, settings, sample_id=sample_id)
+    video = isinstance(recording, (str, os.PathLike)) and is_video(recording)
+    tracked = track_recording(recording, settings) if video else None
+    result = process_recording(recording, ball, settings, sample_id=sample_id, tracked=tracked)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(prefix=".dropfit-run.", dir=out) as directory:
-        made = {name: Path(directory) / name for name in RUN_FILES}
+        made = {name: Path(directory) / name for name in (run_files(recording) if video else RUN_FILES)}
         write_trajectory(made["trajectory.nc"], result.trajectory)
         write_analysis(result.analysis, result.trajectory.attrs, made["impacts.csv"], made["flights.csv"],
                        made["analysis.json"])
         write_json(made["fit.json"], result.fit)
+        if video:  # the contact sheet from the files, as the workflow's overlay job makes it
+            write_table(made["track.csv"], tracked.table)
+            overlay(recording, made["contact_sheet.png"], results_dir=directory)
         # the report from the files, as the workflow's report job makes it
         report(made["trajectory.nc"], made["flights.csv"], made["impacts.csv"], made["analysis.json"],
-               made["fit.json"], made["report.html"], made["report.png"])
+               made["fit.json"], made["report.html"], made["report.png"], made.get("contact_sheet.png"))
         for name, path in made.items():
             os.replace(path, out / name)
     return result
@@ -122,12 +213,14 @@ def write_analysis(analysis, trajectory_attrs, impacts_path, flights_path, summa
     write_json(summary_path, analysis_summary(analysis, trajectory_attrs))
 
 
-def report(trajectory_path, flights_path, impacts_path, analysis_path, fit_path, html_path, figure_path):
-    """Per-recording HTML report and PNG figure."""
+def report(trajectory_path, flights_path, impacts_path, analysis_path, fit_path, html_path, figure_path,
+           contact_sheet_path=None):
+    """Per-recording HTML report and PNG figure; a video's contact sheet (PNG, :func:`overlay`) is shown in it."""
     from .report import write_recording_report
 
     write_recording_report(read_trajectory(trajectory_path), read_flights(flights_path), read_impacts(impacts_path),
-                           read_report_analysis(analysis_path), read_fit(fit_path), html_path, figure_path)
+                           read_report_analysis(analysis_path), read_fit(fit_path), html_path, figure_path,
+                           read_bytes(contact_sheet_path, "contact sheet (PNG)") if contact_sheet_path else None)
 
 
 def _read_fits(fit_paths):

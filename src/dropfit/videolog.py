@@ -152,7 +152,8 @@ def find_floor_row(background_grey, bottom_row_px, radius_px):
 
 
 def trajectory_from_video(path, ball_radius_m=None, scale_m_per_px=None, capture_fps=None,
-                          gravity_m_s2=STANDARD_GRAVITY_M_S2, attrs=None, ruler_tick_m=None, targets=None):
+                          gravity_m_s2=STANDARD_GRAVITY_M_S2, attrs=None, ruler_tick_m=None, targets=None,
+                          tracked=None):
     """Track the ball in a drop-test video and return the trajectory dataset (heights in m, up).
 
     Parameters
@@ -174,11 +175,15 @@ def trajectory_from_video(path, ball_radius_m=None, scale_m_per_px=None, capture
         Spacing in m of the finest ticks of a ruler in the ball's plane, for the scale from the ruler.
     targets : ScaleTargets, optional
         Two points a known distance apart, an ArUco marker's or a checkerboard's size.
+    tracked : dropfit.video.track.TrackedVideo, optional
+        The video's tracked table and background (:func:`dropfit.video.track.track_video_and_background`
+        with ``capture_fps``), when the caller has tracked it already; by default it is tracked here.
 
     Returns
     -------
     xarray.Dataset
-        As :func:`dropfit.heightlog.make_trajectory`, plus ``x`` (m) and ``radius`` (m); image rows
+        As :func:`dropfit.heightlog.make_trajectory`, plus ``x`` (m), ``radius`` (m) and ``frame`` (the
+        video frame of each sample, counted from 0, as in the tracked table); image rows
         point down, so heights are −row × scale (the zero is the top image row). The attributes
         hold every scale found (``scale_<source>_m_per_px`` and ``_se_m_per_px``), the chosen
         ``scale_source``, ``scale_m_per_px`` and its relative standard error ``scale_rel_se``, the
@@ -187,7 +192,7 @@ def trajectory_from_video(path, ball_radius_m=None, scale_m_per_px=None, capture
     """
     from .video.track import track_video_and_background, usable_rows
 
-    table, background = track_video_and_background(path, capture_fps=capture_fps)
+    table, background = track_video_and_background(path, capture_fps=capture_fps) if tracked is None else tracked
     table = table[table["quality"] != "duplicate"]  # a repeated frame carries no new instant
     video_limits.check_recording(table, path)  # refuse below the limits of benchmarks/video_failure_sweep.py
     usable = usable_rows(table)
@@ -236,6 +241,7 @@ def trajectory_from_video(path, ball_radius_m=None, scale_m_per_px=None, capture
     trajectory = make_trajectory(time, -rows * scale, path, _CALIBRATION_TEXT[chosen], extra)
     trajectory["x"] = ("time", x_px * scale, {"units": "m"})
     trajectory["radius"] = ("time", np.where(usable, table["radius_px"].to_numpy(), np.nan) * scale, {"units": "m"})
+    trajectory["frame"] = ("time", table["frame"].to_numpy(), {"long_name": "video frame, counted from 0"})
     return trajectory
 
 

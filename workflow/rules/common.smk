@@ -51,6 +51,14 @@ def _alternatives(names):
     return "|".join(re.escape(str(name)) for name in names)
 
 
+from dropfit.videolog import is_video
+
+#: Samples whose recording is a video: its measure job also writes the tracked table (track.csv), and
+#: an overlay job draws what was tracked on its frames (contact_sheet.png), refused clips included.
+video_samples = [sample for sample in samples.index if is_video(samples.loc[sample, "path"])]
+log_samples = [sample for sample in samples.index if sample not in video_samples]
+
+
 wildcard_constraints:
     sample=_alternatives(samples.index),
     scenario=_alternatives(synthetic_recordings),
@@ -145,3 +153,13 @@ def fit_args(wildcards):
 def qc_args(wildcards):
     """``dropfit qc`` options: the ITF rebound test limits (m), from the config."""
     return _stage_options("qc")
+
+
+def contact_sheet(wildcards):
+    """A video's contact sheet, which its report shows (none for a height log)."""
+    return f"results/{wildcards.sample}/contact_sheet.png" if wildcards.sample in video_samples else []
+
+
+def contact_sheet_option(wildcards, input):
+    """``--contact-sheet <png>`` of ``dropfit report`` for a video, else nothing."""
+    return f"--contact-sheet {shlex.quote(str(input.contact_sheet))}" if input.contact_sheet else ""

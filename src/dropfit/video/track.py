@@ -37,13 +37,14 @@ from __future__ import annotations
 import math
 from collections.abc import Sequence
 from dataclasses import replace
+from typing import NamedTuple
 
 import numpy as np
 import pandas as pd
 
 from ..errors import InputError, shown_path
 from ..files import check_input_file
-from .background import BACKGROUND_SAMPLES, background_without_ball, estimate_background, grey_uint8, to_grey
+from .background import BACKGROUND_SAMPLES, Background, background_without_ball, estimate_background, grey_uint8, to_grey
 from .decode import MIN_FRAMES, Progress, VideoFile, check_frame_count, check_video_file, frame_times, spread_indices
 from .detect import (QUALITY_BLURRED, QUALITY_DUPLICATE, QUALITY_LOST, QUALITY_OCCLUDED, QUALITY_OK, QUALITY_PARTIAL,
                      find_ball, measure_ball)
@@ -446,10 +447,17 @@ def track_video(path, capture_fps=None, expected_radius_px=None, *, background_s
                                       progress_stream=progress_stream, frame_memory_bytes=frame_memory_bytes)[0]
 
 
+class TrackedVideo(NamedTuple):
+    """A tracked video: its table (:func:`track_video`) and the background it was tracked against."""
+
+    table: pd.DataFrame
+    background: Background
+
+
 def track_video_and_background(path, capture_fps=None, expected_radius_px=None, *,
                                background_samples=BACKGROUND_SAMPLES, progress_stream=None, frame_memory_bytes=None):
-    """:func:`track_video`'s table and the background it tracked against (a :class:`Background`),
-    for what else is read from the scene (a ruler, the floor) without opening the file again."""
+    """:func:`track_video`'s table and the background it tracked against, as a :class:`TrackedVideo`,
+    for what else is read from the scene (a ruler, a target, the floor) without opening the file again."""
     path = check_input_file(path, "video")
     name = shown_path(path)
     if capture_fps is not None and not capture_fps > 0:
@@ -484,4 +492,4 @@ def track_video_and_background(path, capture_fps=None, expected_radius_px=None, 
     table.attrs.update(source=str(path), container_fps=container_fps, capture_fps=capture_fps,
                        time_source=how, frame_count_header=info.frame_count, rotation_deg=info.rotation_deg,
                        codec=info.codec, noise_grey=background.noise_grey)
-    return _found_or_raise(table, path), background
+    return TrackedVideo(_found_or_raise(table, path), background)
