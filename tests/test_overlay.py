@@ -39,8 +39,9 @@ def analysed_clip(drop, tmp_path_factory):
     truth = render_drop_clip(tmp_path_factory.mktemp("clip") / "clip.avi", drop, fps=120.0)
     video = truth.attrs["video_path"]
     ball = Ball(radius_m=CLIP_BALL_RADIUS_M)
-    table = track_recording(video)
-    trajectory = measure_recording(video, ball, tracked=table)
+    tracked = track_recording(video)
+    table = tracked.table
+    trajectory = measure_recording(video, ball, tracked=tracked)
     analysis = analyse_trajectory(trajectory)
     scene = overlay_scene(table, trajectory, analysis.flights, analysis.impacts,
                           analysis_summary(analysis, trajectory.attrs))
