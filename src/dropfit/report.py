@@ -354,6 +354,7 @@ def _video_frame_html(trajectory):
     attrs = trajectory.attrs
     if "video" not in attrs or "x" not in trajectory:
         return ""
+    from .video.calibrate import keystoned_rows
     from .video.opencv import cv2, decoder_output_silenced
 
     scale = float(attrs["scale_m_per_px"])
@@ -370,6 +371,8 @@ def _video_frame_html(trajectory):
         return f"<p>The video frame {index} could not be read back for the overlay.</p>"
     x_px = float(trajectory["x"].values[index]) / scale
     y_px = -float(trajectory["y"].values[index]) / scale
+    if "keystone_per_px" in attrs:  # heights are of rows rectified by the ruler's keystone
+        y_px = float(keystoned_rows(y_px, attrs["keystone_per_px"], attrs["keystone_row_px"]))
     radius_px = float(trajectory["radius"].values[index]) / scale
     green, red = (40, 200, 40), (40, 40, 230)
     cv2.circle(frame, (round(x_px), round(y_px)), round(radius_px), green, 2, cv2.LINE_AA)

@@ -6,9 +6,12 @@ in the background (with ``ruler_tick_m``), gravity (the flights' shared accelera
 quadratic drag included, over g) and the ball's known diameter (its tracked radius in px against
 its radius in m). The one used is the first available in the precedence given > ruler > gravity >
 diameter (an order by accuracy: see :mod:`dropfit.video.calibrate`); every other one is stored with its
-disagreement relative to it. The chosen scale's relative standard error (``scale_rel_se``; 0 for a
-given scale) goes with the trajectory, and the analysis adds its effect on every impact quantity
-(heights, and through the fitted drag also e, flight times and their ratios) to their covariance.
+disagreement relative to it. A ruler also measures the camera tilt's keystone (the scale changing
+along the image's height): the tracked rows and the floor's row are rectified with it
+(:func:`dropfit.video.calibrate.rectify_rows`) before any scale applies. The chosen scale's
+relative standard error (``scale_rel_se``; 0 for a given scale) goes with the trajectory, and the
+analysis adds its effect on every impact quantity (heights, and through the fitted drag also e,
+flight times and their ratios) to their covariance.
 
 Time: a slow-motion file's container rate may be a playback rate. With a scale that does not
 come from gravity, the flights' acceleration in the file's time gives the capture rate, snapped to a
@@ -20,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 
 from .video import limits as video_limits
-from .video.calibrate import SCALE_PRECEDENCE, choose_scale, infer_capture_rate, ruler_scale
+from .video.calibrate import SCALE_PRECEDENCE, choose_scale, infer_capture_rate, rectify_rows, ruler_scale
 from .errors import InputError, shown_path
 from .heightlog import check_floor, flight_acceleration, make_trajectory, nominal_drag_of, scale_from_gravity
 from .numerics import robust_sigma
@@ -136,8 +139,9 @@ def trajectory_from_video(path, ball_radius_m=None, scale_m_per_px=None, capture
     -------
     xarray.Dataset
         As :func:`dropfit.heightlog.make_trajectory`, plus ``x`` (m) and ``radius`` (m); image rows
-        point down, so heights are −row × scale (the zero is the top image row). The attributes
-        hold every scale found (``scale_<source>_m_per_px`` and ``_se_m_per_px``), the chosen
+        point down, so heights are −row × scale (the zero is the top image row), with rows rectified
+        by a ruler's keystone (``keystone_per_px``, ``keystone_se_per_px``, ``keystone_row_px``). The
+        attributes hold every scale found (``scale_<source>_m_per_px`` and ``_se_m_per_px``), the chosen
         ``scale_source``, ``scale_m_per_px`` and its relative standard error ``scale_rel_se``, the
         others' ``scale_disagreement_<source>`` (s / s_chosen − 1), and the time base
         (``capture_fps``, ``capture_fps_source``, ``capture_rate_note``).
@@ -151,13 +155,14 @@ def trajectory_from_video(path, ball_radius_m=None, scale_m_per_px=None, capture
     if np.count_nonzero(usable) < 10:
         raise InputError(f"{shown_path(path)}: the ball is measured cleanly in only {np.count_nonzero(usable)} of "
                          f"{len(table)} frames (at least 10 are needed)")
-    rows = np.where(usable, table["y_px"].to_numpy(), np.nan)
+    image_rows = np.where(usable, table["y_px"].to_numpy(), np.nan)
     radius_px = table["radius_px"].to_numpy()[usable]
     extra = dict(attrs or {})
     extra.update(video=str(path), frames=int(len(table)), frames_usable=int(np.count_nonzero(usable)))
     # the ruler and the floor are read from the background; neither needed, no second read of the file
     background = video_background(path) if ruler_tick_m or extra.get("floor_m") is None else None
     scales = _independent_scales(background, radius_px, ball_radius_m, scale_m_per_px, ruler_tick_m, extra)
+    rows = _rectified(image_rows, extra)
     time = _capture_time(table, rows, scales, capture_fps, gravity_m_s2, extra)
     if extra["capture_fps_source"] == _RAW_RATE_SOURCE:
         extra["gravity_calibration_failed"] = "gravity set the capture rate, so it gives no independent scale"
@@ -170,10 +175,10 @@ def trajectory_from_video(path, ball_radius_m=None, scale_m_per_px=None, capture
     check_floor(-rows[np.isfinite(rows)] * scale, extra, path)  # a given floor, in the video's frame
     if extra.get("floor_m") is None and background is not None:
         median_radius_px = float(np.nanmedian(radius_px))
-        floor_row = find_floor_row(background, float(np.nanmax(rows)) + median_radius_px, median_radius_px)
+        floor_row = find_floor_row(background, float(np.nanmax(image_rows)) + median_radius_px, median_radius_px)
         if floor_row is not None:
             extra["floor_row_px"] = floor_row
-            extra["floor_m"] = -floor_row * scale  # heights are −row × scale
+            extra["floor_m"] = -float(_rectified(floor_row, extra)) * scale  # heights are −row × scale
             extra["floor_se_m"] = FLOOR_ROW_SE_PX * scale
     trajectory = make_trajectory(time, -rows * scale, path, _CALIBRATION_TEXT[chosen], extra)
     trajectory["x"] = ("time", np.where(usable, table["x_px"].to_numpy(), np.nan) * scale, {"units": "m"})
@@ -198,10 +203,19 @@ def _independent_scales(background, radius_px, ball_radius_m, scale_m_per_px, ru
             (None, "no ruler: the background could not be read")
         if ruler is not None:
             scales["ruler"] = (ruler.scale_m_per_px, ruler.scale_se_m_per_px)
-            extra.update(ruler_tick_m=float(ruler_tick_m), ruler_ticks=ruler.n_ticks)
+            extra.update(ruler_tick_m=float(ruler_tick_m), ruler_ticks=ruler.n_ticks,
+                         keystone_per_px=ruler.keystone_per_px, keystone_se_per_px=ruler.keystone_se_per_px,
+                         keystone_row_px=ruler.keystone_row_px)
     if ball_radius_m:
         scales["diameter"] = scale_from_diameter(radius_px, ball_radius_m)
     return scales
+
+
+def _rectified(rows_px, extra):
+    """Image rows (px) rectified by the ruler's keystone recorded in ``extra``; unchanged without a ruler."""
+    if "keystone_per_px" not in extra:
+        return rows_px
+    return rectify_rows(rows_px, extra["keystone_per_px"], extra["keystone_row_px"])
 
 
 def _capture_time(table, rows, scales, capture_fps, gravity_m_s2, extra):
