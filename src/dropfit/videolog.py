@@ -15,7 +15,10 @@ are mapped through it, so a camera that is not square to the plane of the drop i
 plane's vertical is the principal axis of the ball's track in it (a drop: its horizontal travel
 is small against its fall), pointing up where the image's rows point down. Without a target, the
 trend of the tracked radius with the image row tells how far a single scale can be off
-(``tilt_note``, :func:`dropfit.video.targets.tilt_bias`). The chosen scale's relative standard error (``scale_rel_se``; 0 for a
+(``tilt_note``, :func:`dropfit.video.targets.tilt_bias`); an upright ruler measures the keystone of
+a camera tilted about its horizontal axis (the scale changing along the image's height), and the
+tracked rows and the floor's row are rectified with it (:func:`dropfit.video.calibrate.rectify_rows`)
+before any scale applies. The chosen scale's relative standard error (``scale_rel_se``; 0 for a
 given scale) goes with the trajectory, and the analysis adds its effect on every impact quantity
 (heights, and through the fitted drag also e, flight times and their ratios) to their covariance.
 
@@ -31,7 +34,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .video import limits as video_limits
-from .video.calibrate import SCALE_PRECEDENCE, choose_scale, infer_capture_rate, ruler_scale
+from .video.calibrate import SCALE_PRECEDENCE, choose_scale, infer_capture_rate, rectify_rows, ruler_scale
 from .video.targets import aruco_plane, board_plane, local_scale, tilt_bias, to_plane, two_point_scale
 from .errors import InputError, shown_path
 from .heightlog import check_floor, flight_acceleration, make_trajectory, nominal_drag_of, scale_from_gravity
@@ -183,9 +186,11 @@ def trajectory_from_video(path, ball_radius_m=None, scale_m_per_px=None, capture
     -------
     xarray.Dataset
         As :func:`dropfit.heightlog.make_trajectory`, plus ``x`` (m), ``radius`` (m) and ``frame`` (the
-        video frame of each sample, counted from 0, as in the tracked table); image rows
-        point down, so heights are −row × scale (the zero is the top image row). The attributes
-        hold every scale found (``scale_<source>_m_per_px`` and ``_se_m_per_px``), the chosen
+        video frame of each sample, counted from 0, as in the tracked table); image rows point down, so
+        heights are −row × scale (the zero is the top image row), with rows rectified by a ruler's
+        keystone (``keystone_per_px``, ``keystone_se_per_px``, ``keystone_row_px``) or mapped into a
+        target's plane. The attributes hold every scale found (``scale_<source>_m_per_px`` and
+        ``_se_m_per_px``), the chosen
         ``scale_source``, ``scale_m_per_px`` and its relative standard error ``scale_rel_se``, the
         others' ``scale_disagreement_<source>`` (s / s_chosen − 1), and the time base
         (``capture_fps``, ``capture_fps_source``, ``capture_rate_note``).
@@ -214,10 +219,13 @@ def trajectory_from_video(path, ball_radius_m=None, scale_m_per_px=None, capture
         scales["points"] = two_point_scale(targets.points_px, targets.distance_m)
     image_rows = rows
     if plane is not None:
+        extra.pop("keystone_per_px", None)  # the target's map takes the tilt in full
         x_px, rows, plane_scale = _through_plane(plane, x_px, rows)
         scales["target"] = (plane_scale, plane_scale * plane.scale_se_m_per_px / plane.scale_m_per_px)
     else:
-        extra["tilt_scale_difference"], _, extra["tilt_note"] = tilt_bias(radius_px, image_rows[usable])
+        rows = _rectified(image_rows, extra)
+        if "keystone_per_px" not in extra:
+            extra["tilt_scale_difference"], _, extra["tilt_note"] = tilt_bias(radius_px, image_rows[usable])
     time = _capture_time(table, rows, scales, capture_fps, gravity_m_s2, extra)
     if extra["capture_fps_source"] == _RAW_RATE_SOURCE:
         extra["gravity_calibration_failed"] = "gravity set the capture rate, so it gives no independent scale"
@@ -236,6 +244,8 @@ def trajectory_from_video(path, ball_radius_m=None, scale_m_per_px=None, capture
             if plane is not None:  # the floor's edge below the drop, in the plane's rows
                 floor_row = float(_through_plane(plane, np.array([np.nanmedian(table["x_px"])]),
                                                  np.array([floor_row]))[1][0])
+            else:
+                floor_row = float(_rectified(floor_row, extra))
             extra["floor_m"] = -floor_row * scale  # heights are −row × scale
             extra["floor_se_m"] = FLOOR_ROW_SE_PX * scale
     trajectory = make_trajectory(time, -rows * scale, path, _CALIBRATION_TEXT[chosen], extra)
@@ -309,10 +319,19 @@ def _independent_scales(background, radius_px, ball_radius_m, scale_m_per_px, ru
             (None, "no ruler: the background could not be read")
         if ruler is not None:
             scales["ruler"] = (ruler.scale_m_per_px, ruler.scale_se_m_per_px)
-            extra.update(ruler_tick_m=float(ruler_tick_m), ruler_ticks=ruler.n_ticks)
+            extra.update(ruler_tick_m=float(ruler_tick_m), ruler_ticks=ruler.n_ticks,
+                         keystone_per_px=ruler.keystone_per_px, keystone_se_per_px=ruler.keystone_se_per_px,
+                         keystone_row_px=ruler.keystone_row_px)
     if ball_radius_m:
         scales["diameter"] = scale_from_diameter(radius_px, ball_radius_m)
     return scales
+
+
+def _rectified(rows_px, extra):
+    """Image rows (px) rectified by the ruler's keystone recorded in ``extra``; unchanged without a ruler."""
+    if "keystone_per_px" not in extra:
+        return rows_px
+    return rectify_rows(rows_px, extra["keystone_per_px"], extra["keystone_row_px"])
 
 
 def _capture_time(table, rows, scales, capture_fps, gravity_m_s2, extra):

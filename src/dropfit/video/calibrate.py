@@ -11,9 +11,10 @@ in the background, taken from *gravity* (the flights' shared acceleration in px/
 over g) or from the ball's known *diameter*. The one used is the first available in the order given
 > points > target > ruler > gravity > diameter (:data:`SCALE_PRECEDENCE`): what the user states
 first, then an order by accuracy, not by precision (a target also corrects a camera's tilt). A ruler in the ball's
-plane is a direct length standard over the whole drop; gravity is the most precise
-(about 0.004 % on the default phone clip) but carries what its model leaves out (a camera tilt's
-keystone adds a speed-dependent curvature, +0.2 % at 0.5°); the tracked diameter depends on the
+plane is a direct length standard over the whole drop, and an upright one measures the keystone as
+well (below); gravity is the most precise (about 0.004 % on the default phone clip) but carries what
+its model leaves out (without a ruler or target to rectify the rows, a camera tilt's keystone adds a
+speed-dependent curvature, +0.2 % at 0.5°); the tracked diameter depends on the
 edge threshold, blur and compression (about 0.2 %). Every other available scale is reported with
 its disagreement relative to the chosen one, s_other / s_chosen − 1.
 
@@ -35,6 +36,20 @@ from a spacing fitted to all of them (:func:`mark_numbers`; ticks on whole pixel
 for 4.5, and a median step would let the count drift); a straight line of mark position against
 number, with outliers left out, gives px per tick and its standard error from the residuals.
 
+Keystone
+--------
+A camera tilted about its horizontal axis images the ball's plane through a homography, so the
+scale changes along the image's height: a straight line through the ruler's ticks averages it, and
+heights read through that one scale are curved (on the default phone clip, 0.5° of tilt: 3 mm low
+at mid-height, the first impact's v_in 0.37 % low and e 1.9 standard errors high). Along a column a
+homography is a one-dimensional projective map, so the ticks are fitted by one: the *rectified*
+row u = r₀ + (r − r₀) / (1 + κ (r − r₀)) (:func:`rectify_rows`) of every tick is a straight line in
+its number, with the keystone κ (1/px) fitted with it and r₀ the ticks' mean row, where the scale
+is given. The tracked rows are rectified with the same κ before they become heights. The map does
+not depend on the column for a tilt about the horizontal axis alone; a roll or a sideways tilt as
+well makes the ruler's κ only approximately the ball's. κ's standard error is recorded, not
+budgeted: on the default clip it moves speeds by about 2 κ_se · |r − r₀| ≈ 0.002 %.
+
 Capture rate
 ------------
 In a slow-motion file the container's time runs ``capture/container`` times slower than real time,
@@ -51,8 +66,9 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.ndimage import gaussian_filter1d, maximum_filter1d
+from scipy.optimize import least_squares
 
-from ..numerics import linear_fit, robust_sigma
+from ..numerics import least_squares_covariance, linear_fit, robust_sigma
 
 #: Scale sources in the order in which they are preferred.
 SCALE_PRECEDENCE = ("given", "points", "target", "ruler", "gravity", "diameter")
@@ -102,8 +118,8 @@ class RulerCalibration:
     Attributes
     ----------
     scale_m_per_px, scale_se_m_per_px : float
-        Image scale in m/px and its standard error (from the residuals of the line fit of mark
-        position against mark number).
+        Image scale in m/px of rectified rows (the scale at ``keystone_row_px``) and its standard
+        error (from the residuals of the fit of mark position against mark number).
     n_ticks : int
         Marks in the line fit.
     ticks_per_step : int
@@ -117,6 +133,11 @@ class RulerCalibration:
     marks : str
         ``ticks, count checked`` (longer ticks confirm the count), ``marks of one length`` (no longer
         ticks; each mark is one ``tick_m`` on) or ``band edges`` (painted alternating bands).
+    keystone_per_px, keystone_se_per_px : float
+        The keystone κ in 1/px (:func:`rectify_rows`; 0 for a camera square to the ruler, and for a
+        lying ruler, which cannot tell it) and its standard error.
+    keystone_row_px : float
+        The row r₀ in px about which rows are rectified: the ticks' mean row.
     """
 
     scale_m_per_px: float
@@ -127,6 +148,56 @@ class RulerCalibration:
     channel: str = "grey"
     marks: str = "ticks, count checked"
     n_columns: int = 0
+    keystone_per_px: float = 0.0
+    keystone_se_per_px: float = 0.0
+    keystone_row_px: float = 0.0
+
+
+def rectify_rows(rows_px, keystone_per_px, keystone_row_px):
+    """Image rows → rows of one scale throughout, in px: u = r₀ + (r − r₀) / (1 + κ (r − r₀)).
+
+    Parameters
+    ----------
+    rows_px : numpy.ndarray or float
+        Image rows r in px (down).
+    keystone_per_px : float
+        The keystone κ in 1/px (:attr:`RulerCalibration.keystone_per_px`).
+    keystone_row_px : float
+        The row r₀ in px where rectified and image rows agree in position and scale.
+
+    Returns
+    -------
+    numpy.ndarray or float
+        Rectified rows u in px.
+    """
+    offset = np.asarray(rows_px, dtype=float) - keystone_row_px
+    return keystone_row_px + offset / (1.0 + keystone_per_px * offset)
+
+
+def keystoned_rows(rectified_px, keystone_per_px, keystone_row_px):
+    """Rectified rows → image rows in px: the inverse of :func:`rectify_rows`."""
+    offset = np.asarray(rectified_px, dtype=float) - keystone_row_px
+    return keystone_row_px + offset / (1.0 - keystone_per_px * offset)
+
+
+def _keystoned_line_fit(index, rows):
+    """Fit tick rows (px) against tick numbers as a straight line in rectified rows, u = a + b·index.
+
+    Returns
+    -------
+    (float, float, float, float, float)
+        px per tick b and its standard error, the keystone κ (1/px) and its standard error, and r₀ (px).
+    """
+    row0 = float(np.mean(rows))
+    start, _ = linear_fit(np.column_stack([np.ones_like(index), index]), rows)
+
+    def residuals(theta):
+        return keystoned_rows(theta[0] + theta[1] * index, theta[2], row0) - rows
+
+    fit = least_squares(residuals, [start[0], start[1], 0.0], x_scale="jac")
+    covariance = least_squares_covariance(fit.jac, fit.fun)
+    return (float(fit.x[1]), float(np.sqrt(covariance[1, 1])), float(fit.x[2]), float(np.sqrt(covariance[2, 2])),
+            row0)
 
 
 def _dark_runs(profile):
@@ -307,7 +378,8 @@ def ruler_scale(image, tick_m):
             if ruler is None:
                 notes.append(note)
             else:
-                found.append((dataclasses.replace(ruler, orientation=orientation, channel=channel), note))
+                lying = {} if orientation == "upright" else {"keystone_per_px": 0.0, "keystone_se_per_px": 0.0}
+                found.append((dataclasses.replace(ruler, orientation=orientation, channel=channel, **lying), note))
     if not found:
         return None, notes[0] + " (nor in any other colour channel or lying)"
     ruler, note = _best(found)
@@ -395,10 +467,13 @@ def _ruler_in_columns(grey, first, last, strong, tick_m):
         if np.array_equal(kept, np.abs(residuals) <= limit):
             break
         kept = np.abs(residuals) <= limit
-    px_per_tick, px_per_tick_se = abs(float(coef[1])), float(np.sqrt(covariance[1, 1]))
+    px_per_tick, px_per_tick_se, keystone, keystone_se, keystone_row = _keystoned_line_fit(
+        index[kept] * per_step, base[kept])
+    px_per_tick = abs(px_per_tick)
     scale = tick_m / px_per_tick
     result = RulerCalibration(scale, scale * px_per_tick_se / px_per_tick, int(kept.sum()), per_step, marks=marks,
-                              n_columns=columns)
+                              n_columns=columns, keystone_per_px=keystone, keystone_se_per_px=keystone_se,
+                              keystone_row_px=keystone_row)
     if marks != "ticks, count checked":
         return result, f"ruler in columns {first}-{last} px: {base.size} {marks}, each taken as {tick_m:g} m"
     return result, (f"ruler in columns {first}-{last} px: {base.size} ticks {per_step} apart, count checked "

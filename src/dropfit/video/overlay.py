@@ -22,6 +22,7 @@ import numpy as np
 
 from ..errors import InputError, shown_path
 from ..physics import flight_height
+from .calibrate import keystoned_rows
 from .opencv import cv2
 from .track import (QUALITY_BLURRED, QUALITY_DUPLICATE, QUALITY_LOST, QUALITY_OCCLUDED, QUALITY_OK,
                     QUALITY_PARTIAL, usable_rows)
@@ -124,6 +125,9 @@ class OverlayScene:
         Where the scale came from (``given``, ``ruler``, ``gravity``, ``diameter``).
     floor_row_px : float or None
         Image row of the floor, px.
+    keystone : (float, float) or None
+        A ruler's keystone κ (1/px) and its row r₀ (px): heights are of rows rectified with them
+        (:func:`dropfit.video.calibrate.rectify_rows`), mapped back to image rows here.
     caption : list of str
         Lines shown above a contact sheet: what was tracked and, for a refused clip, why it was refused.
     """
@@ -137,7 +141,13 @@ class OverlayScene:
     scale_m_per_px: float | None = None
     scale_source: str | None = None
     floor_row_px: float | None = None
+    keystone: tuple | None = None
     caption: tuple = ()
+
+    def image_row_px(self, height_m):
+        """The image row (px) of a height (m): −h / scale, with a ruler's keystone put back."""
+        rows = -np.asarray(height_m, dtype=float) / self.scale_m_per_px  # heights are −row × scale
+        return keystoned_rows(rows, *self.keystone) if self.keystone else rows
 
     def fitted_row_px(self, time_s):
         """Image row (px) of the fitted flight at times ``time_s`` (s); NaN outside every flight."""
@@ -149,7 +159,7 @@ class OverlayScene:
             inside = (time_s >= flight.t_start_s) & (time_s <= flight.t_end_s)
             height = flight_height(time_s[inside], flight.t_apex_s, flight.y_apex_m, self.drag_k_per_m,
                                    self.gravity_m_s2)
-            rows[inside] = -height / self.scale_m_per_px  # heights are −row × scale
+            rows[inside] = self.image_row_px(height)
         return rows
 
     def fitted_path_px(self):
@@ -202,12 +212,13 @@ def overlay_scene(table, trajectory=None, flights=None, impacts=None, analysis=N
             and attrs.get("ball_radius_m") is not None:
         floor_m = analysis["contact_height_m"] - attrs["ball_radius_m"]  # the contact height is the floor + radius
     analysis = analysis or {}
+    keystone = (attrs["keystone_per_px"], attrs["keystone_row_px"]) if "keystone_per_px" in attrs else None
     return OverlayScene(
         table=table, frame_time_s=frame_time, flights=flights, impacts=impacts,
         drag_k_per_m=float(analysis.get("drag_k_per_m") or 0.0), gravity_m_s2=float(analysis.get("gravity_m_s2") or 0.0),
         scale_m_per_px=scale, scale_source=attrs.get("scale_source"),
-        floor_row_px=-floor_m / scale if floor_m is not None and scale else None,
-        caption=tuple(tracking_caption(table, reason)))
+        floor_row_px=attrs.get("floor_row_px", -floor_m / scale if floor_m is not None and scale else None),
+        keystone=keystone, caption=tuple(tracking_caption(table, reason)))
 
 
 def tracking_caption(table, reason=None):
