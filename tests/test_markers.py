@@ -3,11 +3,13 @@ from the truth), two clicked points, and the tilt bias of a scale without a targ
 
 import cv2
 import numpy as np
+import pandas as pd
 import pytest
 
 from dropfit.errors import InputError
-from dropfit.video.targets import (CLICK_SE_PX, aruco_plane, board_plane, local_scale, tilt_bias, to_plane,
-                                   two_point_scale)
+from dropfit.video.targets import (CLICK_SE_PX, aruco_plane, board_plane, local_scale, local_scale_and_se,
+                                   tilt_bias, to_plane, two_point_scale)
+from helpers import phone_clip
 
 #: A target's scale must match the truth to this relative accuracy ...
 TARGET_SCALE_RTOL = 0.005  # 1 (0.5 %)
@@ -66,14 +68,19 @@ def checkerboard(squares, square_m):
     return np.pad(np.kron(pattern, np.ones((side, side), np.uint8)), side, constant_values=255), square_m
 
 
-def _check_plane(found, plane_to_image, corner_m, size_m, tolerance_m=PLANE_POINT_TOL_M):
-    """Scale and plane points of ``found`` against the true camera; its plane's origin at ``corner_m``,
-    the target ``size_m`` across (a homography extrapolated far beyond its target amplifies corner noise)."""
-    image_to_plane = np.linalg.inv(plane_to_image)
-    truth = local_scale(image_to_plane, found.centre_px)
+def _check_scale(found, plane_to_image):
+    """``found``'s scale at its centre against the true camera's; returns the relative error."""
+    truth = local_scale(np.linalg.inv(plane_to_image), found.centre_px)
     error = found.scale_m_per_px / truth - 1.0
     assert abs(error) < TARGET_SCALE_RTOL
     assert abs(error) < TARGET_ERROR_IN_SE * found.scale_se_m_per_px / truth
+    return error
+
+
+def _check_plane(found, plane_to_image, corner_m, size_m, tolerance_m=PLANE_POINT_TOL_M):
+    """Scale and plane points of ``found`` against the true camera; its plane's origin at ``corner_m``,
+    the target ``size_m`` across (a homography extrapolated far beyond its target amplifies corner noise)."""
+    error = _check_scale(found, plane_to_image)
     plane = corner_m + size_m * np.array([[0.0, 0.0], [1.0, 1.0], [-0.5, 0.5], [1.5, -0.5], [0.3, 1.5]])
     image = to_plane(plane_to_image, plane)
     assert np.abs(to_plane(found.homography, image) - (plane - corner_m)).max() < tolerance_m
@@ -81,14 +88,70 @@ def _check_plane(found, plane_to_image, corner_m, size_m, tolerance_m=PLANE_POIN
 
 
 @pytest.mark.parametrize("tilt_deg", [0.0, 20.0])
-def test_aruco_marker_gives_scale_and_plane_map(tilt_deg):
+def test_one_aruco_marker_gives_scale_and_an_affine_map(tilt_deg):
+    """One marker's map has no perspective: right at the marker, and square-on over the plane, but a tilt
+    is left in (and said)."""
     camera = tilted_camera(tilt_deg)
     marker, margin = aruco_target(0.2)
     origin = np.array([0.35, 0.6])
     found, note = aruco_plane(draw_on_plane(marker, origin, camera), 0.2)
     assert found is not None, note
     assert "DICT_4X4_50 id 7" in found.source
-    _check_plane(found, camera, origin + margin, 0.2, MARKER_POINT_TOL_M)
+    assert not found.corrects_tilt and "tilt is not corrected" in note
+    if tilt_deg:
+        _check_scale(found, camera)
+    else:
+        _check_plane(found, camera, origin + margin, 0.2, MARKER_POINT_TOL_M)
+
+
+#: The phonesim clip of the plane tests: a tilted camera and four ArUco markers of this side (m) in the plane.
+TILTED_PRESET, TILTED_MARKER_M = "tennis_aruco_tilted", 0.08
+#: The found plane's heights of the truth's ball centres must match the truth's to this, m.
+TRUTH_HEIGHT_TOL_M = 1e-3  # m
+
+
+@pytest.fixture(scope="module")
+def tilted_clip(tmp_path_factory):
+    """phonesim's tilted-camera clip (seed 1, half size): its first frame and its per-frame truth."""
+    path, truth = phone_clip(TILTED_PRESET, tmp_path_factory.mktemp("tilted"), seed=1, downscale=0.5)
+    capture = cv2.VideoCapture(str(path))
+    ok, frame = capture.read()
+    capture.release()
+    assert ok
+    return frame, truth, pd.read_csv(path.with_suffix(".frames.csv"))
+
+
+def test_markers_fitted_together_map_a_tilted_drop(tilted_clip):
+    """All four markers (their placement unknown) give the plane: the truth's ball centres mapped through
+    it have the truth's heights, and the scale at the drop is the truth's, within its se."""
+    frame, truth, frames = tilted_clip
+    found, note = aruco_plane(frame, TILTED_MARKER_M)
+    assert found is not None and found.corrects_tilt, note
+    assert "4 markers" in note
+    flying = frames[frames["in_frame"] & (frames["phase"] != "held")]
+    centres_px = flying[["x_px", "y_px"]].to_numpy()
+    true_image_to_plane = np.linalg.inv(truth["camera"]["plane_to_px"])
+    for point in centres_px[[np.argmin(centres_px[:, 1]), np.argmax(centres_px[:, 1])]]:  # top and bottom
+        scale, se = local_scale_and_se(found.homography, found.homography_cov, point)
+        error = scale / local_scale(true_image_to_plane, point) - 1.0
+        assert abs(error) < TARGET_SCALE_RTOL and abs(error) < TARGET_ERROR_IN_SE * se / scale
+    # heights along the found plane's axis nearest the truth's vertical, up to the plane's origin
+    plane_m = to_plane(found.homography, centres_px)
+    true_heights = flying["centre_height_m"].to_numpy()
+    direction = np.linalg.lstsq(plane_m - plane_m.mean(axis=0), true_heights - true_heights.mean(), rcond=None)[0]
+    assert np.linalg.norm(direction) == pytest.approx(1.0, abs=TARGET_SCALE_RTOL)
+    heights = (plane_m - plane_m.mean(axis=0)) @ (direction / np.linalg.norm(direction))
+    assert np.abs(heights - (true_heights - true_heights.mean())).max() < TRUTH_HEIGHT_TOL_M
+
+
+def test_one_marker_in_the_tilted_clip_says_the_tilt_is_left_in(tilted_clip):
+    frame, truth, _ = tilted_clip
+    corners = np.array(truth["objects"]["markers"][0]["corners_px"])
+    keep = np.zeros(frame.shape[:2], np.uint8)
+    cv2.fillConvexPoly(keep, np.round(corners.mean(axis=0) + 1.5 * (corners - corners.mean(axis=0))).astype(np.int32), 1)
+    found, note = aruco_plane(np.where(keep[..., None] > 0, frame, 128).astype(np.uint8), TILTED_MARKER_M)
+    assert found is not None and not found.corrects_tilt and "tilt is not corrected" in note
+    _check_scale(found, np.array(truth["camera"]["plane_to_px"]))
 
 
 @pytest.mark.parametrize("tilt_deg", [0.0, 25.0])

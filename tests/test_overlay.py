@@ -13,8 +13,11 @@ from dropfit.pipeline import analyse_trajectory, measure_recording, track_record
 from dropfit.synth import simulate_drop
 from dropfit.video.opencv import cv2
 from dropfit.video.overlay import (CURVE_COLOUR_BGR, LABEL_HEIGHT_PX, QUALITY_COLOURS_BGR, SHEET_COLUMNS, SHEET_TILES,
-                                   TILE_BOX_PX, annotate_frame, contact_sheet, decoded_frames, overlay_scene)
+                                   TILE_BOX_PX, OverlayScene, annotate_frame, contact_sheet, decoded_frames,
+                                   overlay_scene)
 from dropfit.video.track import QUALITY_OK, usable_rows
+import phonesim
+from phonesim.camera import PlaneView
 
 from helpers import CLIP_BALL_RADIUS_M, assert_one_line_error, dropfit, render_drop_clip, stage_args
 
@@ -157,3 +160,17 @@ def test_an_unreadable_video_gives_one_line(tmp_path):
     assert result.returncode == 1
     assert_one_line_error(result.stderr, "broken.avi")
     assert not (tmp_path / "sheet.png").exists()
+
+
+def test_heights_in_a_target_plane_go_back_to_a_tilted_cameras_rows():
+    """Through a plane target's map, a height comes back to phonesim's tilted camera's row in any column:
+    the plane (X right, Y up, m) as the trajectory has it, its scale 5 % above the one chosen."""
+    config = phonesim.PRESETS["tennis_aruco_tilted"].scaled(0.5)
+    view = PlaneView.build(config.camera, config.width_px, config.height_px, 1.0, config.drop_height_m)
+    chosen_m_per_px, plane_m_per_px = 0.002, 0.0021
+    scene = OverlayScene(table=None, frame_time_s=np.empty(0), scale_m_per_px=chosen_m_per_px,
+                         plane=(np.linalg.inv(view.plane_to_px), np.array([0.0, -1.0]), plane_m_per_px / chosen_m_per_px))
+    across_m, up_m = np.meshgrid([-0.1, 0.0, 0.15], np.linspace(0.0, 0.9, 7))
+    columns, rows = view.to_px(across_m.ravel(), up_m.ravel())
+    heights = up_m.ravel() * chosen_m_per_px / plane_m_per_px  # heights are the plane's rows × the chosen scale
+    assert np.abs(scene.image_row_px(heights, columns) - rows).max() < 1e-6

@@ -14,6 +14,7 @@ import pandas as pd
 import pytest
 
 import dropfit
+from dropfit.video.targets import to_plane
 from helpers import phone_clip
 
 #: |e − e_true| allowed per impact, and |h − h_true| for rebound heights, m (the issue's bar).
@@ -42,8 +43,22 @@ def _check(result, truth, impacts_checked):
     return table
 
 
+def _vertical_px_per_m_at_floor(attrs, truth):
+    """px per m up the drop line at the truth's floor point, as the trajectory's calibration has it: through
+    a plane target's map (its ``plane_homography``, ``plane_down``) or the one scale."""
+    if "plane_homography" not in attrs:
+        return 1.0 / attrs["scale_m_per_px"]
+    homography = np.reshape(attrs["plane_homography"], (3, 3))
+    floor_px = np.array(truth["camera"]["floor_px_at_drop_line"])
+    step_m = 0.01  # a cm up the plane's vertical
+    floor_m = to_plane(homography, floor_px)[0]
+    above_px = to_plane(np.linalg.inv(homography), floor_m - step_m * np.asarray(attrs["plane_down"]))[0]
+    return float(np.hypot(*(above_px - floor_px))) / step_m
+
+
 @pytest.mark.parametrize("preset, options, impacts_checked", [
     ("yellow_flicker_portrait_120", {"ruler_tick_m": 0.01}, 3),
+    ("tennis_aruco_tilted", {"marker_size_m": 0.08}, 3),
 ])
 def test_phone_clip_numbers(tmp_path, preset, options, impacts_checked):
     path, truth = phone_clip(preset, tmp_path, seed=3, downscale=0.5)
@@ -51,5 +66,5 @@ def test_phone_clip_numbers(tmp_path, preset, options, impacts_checked):
     result = dropfit.analyse_recording(path, ball_radius_m=physics["radius_m"], ball_mass_kg=physics["mass_kg"],
                                        ball_type=physics["ball_model"], **options)
     _check(result, truth, impacts_checked)
-    scale_px_per_m = 1.0 / result.trajectory.attrs["scale_m_per_px"]
-    assert math.isclose(scale_px_per_m, -truth["camera"]["vertical_px_per_m_at_drop_line"][1], rel_tol=SCALE_TOLERANCE)
+    assert math.isclose(_vertical_px_per_m_at_floor(result.trajectory.attrs, truth),
+                        float(np.hypot(*truth["camera"]["vertical_px_per_m_at_drop_line"])), rel_tol=SCALE_TOLERANCE)

@@ -35,7 +35,7 @@ import numpy as np
 
 from .video import limits as video_limits
 from .video.calibrate import SCALE_PRECEDENCE, choose_scale, infer_capture_rate, rectify_rows, ruler_scale
-from .video.targets import aruco_plane, board_plane, local_scale, tilt_bias, to_plane, two_point_scale
+from .video.targets import aruco_plane, board_plane, local_scale_and_se, tilt_bias, to_plane, two_point_scale
 from .errors import InputError, shown_path
 from .heightlog import check_floor, flight_acceleration, make_trajectory, nominal_drag_of, scale_from_gravity
 from .numerics import robust_sigma
@@ -219,13 +219,12 @@ def trajectory_from_video(path, ball_radius_m=None, scale_m_per_px=None, capture
         scales["points"] = two_point_scale(targets.points_px, targets.distance_m)
     image_rows = rows
     if plane is not None:
-        extra.pop("keystone_per_px", None)  # the target's map takes the tilt in full
-        x_px, rows, plane_scale = _through_plane(plane, x_px, rows)
-        scales["target"] = (plane_scale, plane_scale * plane.scale_se_m_per_px / plane.scale_m_per_px)
+        extra.pop("keystone_per_px", None)  # the target's map takes the tilt in full, or an affine one none of it
+        x_px, rows, scales["target"] = _through_plane(plane, x_px, rows, extra)
     else:
         rows = _rectified(image_rows, extra)
-        if "keystone_per_px" not in extra:
-            extra["tilt_scale_difference"], _, extra["tilt_note"] = tilt_bias(radius_px, image_rows[usable])
+    if "keystone_per_px" not in extra and (plane is None or not plane.corrects_tilt):
+        extra["tilt_scale_difference"], _, extra["tilt_note"] = tilt_bias(radius_px, image_rows[usable])
     time = _capture_time(table, rows, scales, capture_fps, gravity_m_s2, extra)
     if extra["capture_fps_source"] == _RAW_RATE_SOURCE:
         extra["gravity_calibration_failed"] = "gravity set the capture rate, so it gives no independent scale"
@@ -242,8 +241,7 @@ def trajectory_from_video(path, ball_radius_m=None, scale_m_per_px=None, capture
         if floor_row is not None:
             extra["floor_row_px"] = floor_row
             if plane is not None:  # the floor's edge below the drop, in the plane's rows
-                floor_row = float(_through_plane(plane, np.array([np.nanmedian(table["x_px"])]),
-                                                 np.array([floor_row]))[1][0])
+                floor_row = float(_plane_rows(plane, extra, [np.nanmedian(table["x_px"])], [floor_row])[0])
             else:
                 floor_row = float(_rectified(floor_row, extra))
             extra["floor_m"] = -floor_row * scale  # heights are −row × scale
@@ -286,11 +284,13 @@ def _plane_target(background, targets, extra, path):
     return plane
 
 
-def _through_plane(plane, x_px, rows_px):
+def _through_plane(plane, x_px, rows_px, extra):
     """Image points mapped into the target's plane, as pixels of the plane's scale at the drop.
 
-    Returns (x, rows, scale): horizontal and vertical plane coordinates divided by ``scale`` (m/px,
-    the map's local scale at the track's centre), rows pointing down as the image's do.
+    Returns (x, rows, (scale, se)): horizontal and vertical plane coordinates divided by ``scale`` (m/px,
+    the map's local scale at the track's centre, and its standard error), rows pointing down as the
+    image's do. The map back (``plane_homography``, the unit vectors ``plane_down`` and ``plane_across``
+    in plane m, ``plane_scale_m_per_px``) goes into ``extra``.
     """
     points = np.column_stack([x_px, rows_px])
     found = np.isfinite(points).all(axis=1)
@@ -305,8 +305,16 @@ def _through_plane(plane, x_px, rows_px):
     down = down if down @ image_down > 0 else -down
     across = np.array([-down[1], down[0]])
     across = across if across @ (to_plane(plane.homography, centre_px + (1.0, 0.0))[0] - centre_m) > 0 else -across
-    scale = local_scale(plane.homography, centre_px)
-    return plane_m @ across / scale, plane_m @ down / scale, scale
+    scale = local_scale_and_se(plane.homography, plane.homography_cov, centre_px)
+    extra.update(plane_homography=[float(v) for v in plane.homography.ravel()], plane_down=[float(v) for v in down],
+                 plane_across=[float(v) for v in across], plane_scale_m_per_px=scale[0])
+    return plane_m @ across / scale[0], plane_m @ down / scale[0], scale
+
+
+def _plane_rows(plane, extra, x_px, rows_px):
+    """Image points' rows in the plane, as :func:`_through_plane` gives them (its map in ``extra``)."""
+    plane_m = to_plane(plane.homography, np.column_stack([x_px, rows_px]))
+    return plane_m @ np.asarray(extra["plane_down"]) / extra["plane_scale_m_per_px"]
 
 
 def _independent_scales(background, radius_px, ball_radius_m, scale_m_per_px, ruler_tick_m, extra):

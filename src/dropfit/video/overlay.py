@@ -2,12 +2,12 @@
 
 On each frame are drawn the tracked ball (a circle at the tracked centre and radius, coloured by the
 frame's quality flag: :data:`QUALITY_COLOURS_BGR`), the fitted flights mapped back to pixels (the
-trajectory's heights are −row × scale, so a fitted height h lies on row −h / scale; the column follows
-the tracked centres), the floor line and a scale bar with its length in cm at the scale used. The
-contact sheet shows a grid of frames chosen to show the release, every impact (the frames on either
-side of it) and every apex of the fitted flights, the first and the last frame, each labelled with its
-frame number, time and quality flag, under a legend and a caption: what the tracker found and, for a
-refused clip, the reason.
+trajectory's heights are −row × scale, so a fitted height h lies on row −h / scale, or is taken back
+through a plane target's map; the column follows the tracked centres), the floor line and a scale bar
+with its length in cm at the scale used. The contact sheet shows a grid of frames chosen to show the
+release, every impact (the frames on either side of it) and every apex of the fitted flights, the first
+and the last frame, each labelled with its frame number, time and quality flag, under a legend and a
+caption: what the tracker found and, for a refused clip, the reason.
 
 Frames are read by :func:`decoded_frames` (PyAV), the one place that decodes a video here.
 """
@@ -128,6 +128,10 @@ class OverlayScene:
     keystone : (float, float) or None
         A ruler's keystone κ (1/px) and its row r₀ (px): heights are of rows rectified with them
         (:func:`dropfit.video.calibrate.rectify_rows`), mapped back to image rows here.
+    plane : (numpy.ndarray, numpy.ndarray, float) or None
+        A plane target's image→plane homography (3×3, to m), the plane's unit vector down the drop (m)
+        and the ratio of the plane's scale at the drop to ``scale_m_per_px``: heights are of the plane's
+        rows, mapped back to image rows through the homography here.
     caption : list of str
         Lines shown above a contact sheet: what was tracked and, for a refused clip, why it was refused.
     """
@@ -142,15 +146,30 @@ class OverlayScene:
     scale_source: str | None = None
     floor_row_px: float | None = None
     keystone: tuple | None = None
+    plane: tuple | None = None
     caption: tuple = ()
 
-    def image_row_px(self, height_m):
-        """The image row (px) of a height (m): −h / scale, with a ruler's keystone put back."""
+    def image_row_px(self, height_m, column_px):
+        """The image row (px) of a height (m) in image column ``column_px`` (px): −h / scale, with a ruler's
+        keystone put back, or the row where that column meets the plane's line of that height."""
         rows = -np.asarray(height_m, dtype=float) / self.scale_m_per_px  # heights are −row × scale
-        return keystoned_rows(rows, *self.keystone) if self.keystone else rows
+        if self.plane is None:
+            return keystoned_rows(rows, *self.keystone) if self.keystone else rows
+        homography, down, scale_ratio = self.plane
+        down_m = rows * scale_ratio * self.scale_m_per_px  # the plane's coordinate down the drop
+        # along a column the plane point is (a + r b) / (c + r d), r the row: solve down · it = down_m for r
+        start = np.outer(np.asarray(column_px, dtype=float), homography[:, 0]) + homography[:, 2]
+        step = homography[:, 1]
+        return (down_m * start[:, 2] - start[:, :2] @ down) / (step[:2] @ down - down_m * step[2])
+
+    def tracked_column_px(self, time_s):
+        """Column (px) of the tracked centre at times ``time_s`` (s), interpolated between tracked frames."""
+        usable = usable_rows(self.table)
+        return np.interp(time_s, self.frame_time_s[usable], self.table["x_px"].to_numpy(float)[usable])
 
     def fitted_row_px(self, time_s):
-        """Image row (px) of the fitted flight at times ``time_s`` (s); NaN outside every flight."""
+        """Image row (px) of the fitted flight at times ``time_s`` (s), in the tracked centre's column; NaN
+        outside every flight."""
         time_s = np.asarray(time_s, dtype=float)
         rows = np.full(time_s.shape, np.nan)
         if self.flights is None or self.scale_m_per_px is None:
@@ -159,7 +178,7 @@ class OverlayScene:
             inside = (time_s >= flight.t_start_s) & (time_s <= flight.t_end_s)
             height = flight_height(time_s[inside], flight.t_apex_s, flight.y_apex_m, self.drag_k_per_m,
                                    self.gravity_m_s2)
-            rows[inside] = self.image_row_px(height)
+            rows[inside] = self.image_row_px(height, self.tracked_column_px(time_s[inside]))
         return rows
 
     def fitted_path_px(self):
@@ -167,15 +186,14 @@ class OverlayScene:
         ball was tracked (a close-up does not show the fall it was fitted from)."""
         if self.flights is None or self.scale_m_per_px is None:
             return np.empty(0), np.empty(0)
-        usable = usable_rows(self.table)
-        times, columns = self.frame_time_s[usable], self.table["x_px"].to_numpy(float)[usable]
+        times = self.frame_time_s[usable_rows(self.table)]
         xs, ys = [], []
         for flight in self.flights.itertuples(index=False):
             start, end = max(flight.t_start_s, times.min()), min(flight.t_end_s, times.max())
             if end <= start:
                 continue
             grid = np.linspace(start, end, CURVE_POINTS)
-            xs += [np.interp(grid, times, columns), [np.nan]]
+            xs += [self.tracked_column_px(grid), [np.nan]]
             ys += [self.fitted_row_px(grid), [np.nan]]
         return (np.concatenate(xs), np.concatenate(ys)) if xs else (np.empty(0), np.empty(0))
 
@@ -213,12 +231,14 @@ def overlay_scene(table, trajectory=None, flights=None, impacts=None, analysis=N
         floor_m = analysis["contact_height_m"] - attrs["ball_radius_m"]  # the contact height is the floor + radius
     analysis = analysis or {}
     keystone = (attrs["keystone_per_px"], attrs["keystone_row_px"]) if "keystone_per_px" in attrs else None
+    plane = (np.reshape(attrs["plane_homography"], (3, 3)), np.asarray(attrs["plane_down"], dtype=float),
+             attrs["plane_scale_m_per_px"] / scale) if "plane_homography" in attrs and scale else None
     return OverlayScene(
         table=table, frame_time_s=frame_time, flights=flights, impacts=impacts,
         drag_k_per_m=float(analysis.get("drag_k_per_m") or 0.0), gravity_m_s2=float(analysis.get("gravity_m_s2") or 0.0),
         scale_m_per_px=scale, scale_source=attrs.get("scale_source"),
         floor_row_px=attrs.get("floor_row_px", -floor_m / scale if floor_m is not None and scale else None),
-        keystone=keystone, caption=tuple(tracking_caption(table, reason)))
+        keystone=keystone, plane=plane, caption=tuple(tracking_caption(table, reason)))
 
 
 def tracking_caption(table, reason=None):
