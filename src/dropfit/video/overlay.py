@@ -9,7 +9,7 @@ release, every impact (the frames on either side of it) and every apex of the fi
 and the last frame, each labelled with its frame number, time and quality flag, under a legend and a
 caption: what the tracker found and, for a refused clip, the reason.
 
-Frames are read by :func:`decoded_frames` (PyAV), the one place that decodes a video here.
+Frames are read by :func:`decoded_frames` (:class:`dropfit.video.decode.VideoFile`: rotation applied).
 """
 
 from __future__ import annotations
@@ -23,6 +23,7 @@ import numpy as np
 from ..errors import InputError, shown_path
 from ..physics import flight_height
 from .calibrate import keystoned_rows
+from .decode import VideoFile
 from .opencv import cv2
 from .track import (QUALITY_BLURRED, QUALITY_DUPLICATE, QUALITY_LOST, QUALITY_OCCLUDED, QUALITY_OK,
                     QUALITY_PARTIAL, usable_rows)
@@ -60,7 +61,7 @@ _ASCII = {"≥": ">=", "≤": "<=", "×": "x", "σ": "sigma", "–": "-", "—":
 # --- reading frames (to be replaced by dropfit.video.decode) -------------------------------------
 
 def decoded_frames(path, indices=None):
-    """Decode a video once, in order, and yield the frames asked for.
+    """Decode a video once, in order, and yield the frames asked for, as the phone shows them.
 
     Parameters
     ----------
@@ -73,27 +74,22 @@ def decoded_frames(path, indices=None):
     Yields
     ------
     (int, numpy.ndarray)
-        Frame index and the frame (height, width, 3), uint8, blue-green-red.
+        Frame index and the frame (height, width, 3), uint8, blue-green-red, rotation applied.
     """
-    import av
-
     wanted = None if indices is None else set(int(index) for index in indices)
     last = None if wanted is None else max(wanted, default=-1)
-    with av.open(str(path)) as container:
-        for index, frame in enumerate(container.decode(video=0)):
+    with VideoFile(path) as video:
+        for index, _, image in video.frames():
             if last is not None and index > last:
                 return
             if wanted is None or index in wanted:
-                yield index, frame.to_ndarray(format="bgr24")
+                yield index, image
 
 
 def frame_rate(path):
-    """The video's average frame rate in frames/s of its container (a :class:`fractions.Fraction`)."""
-    import av
-
-    with av.open(str(path)) as container:
-        stream = container.streams.video[0]
-        rate = stream.average_rate or stream.guessed_rate
+    """The video's frame rate in frames/s of its container (a :class:`fractions.Fraction`)."""
+    with VideoFile(path) as video:
+        rate = video.info.container_fps
     if not rate:
         raise InputError(f"{shown_path(path)}: the video states no frame rate, so no clip can be written at its rate")
     return Fraction(rate)
