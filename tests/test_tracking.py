@@ -9,6 +9,7 @@ import pytest
 
 from dropfit.errors import InputError
 from dropfit.synth import simulate_drop
+from dropfit.video.background import estimate_background
 from dropfit.video.detect import (QUALITY_BLURRED, QUALITY_DUPLICATE, QUALITY_LOST, QUALITY_OCCLUDED, QUALITY_OK,
                                   QUALITY_PARTIAL)
 from dropfit.video.track import TRACKED_CENTRE_CORRELATION, track_frames, track_video, usable_rows
@@ -386,3 +387,15 @@ def test_tracked_centre_errors_are_as_correlated_as_the_analysis_assumes(tmp_pat
         correlations.append(np.corrcoef(error[:-1][pairs], error[1:][pairs])[0, 1])
     print(f"\n[tracking] lag-1 autocorrelation of centre errors: {np.round(correlations, 3)}")
     assert np.mean(correlations) == pytest.approx(TRACKED_CENTRE_CORRELATION, abs=CORRELATION_TOLERANCE)
+
+
+def test_background_keeps_the_scene_in_colour_for_rulers_and_markers():
+    """The median background of BGR frames keeps its colour (per channel), what the ruler reader and the
+    marker detector read; grey frames give none."""
+    rng = np.random.default_rng(4)
+    frames = [rng.integers(0, 256, (12, 16, 3), dtype=np.uint8) for _ in range(5)]
+    background = estimate_background(frames)
+    assert np.array_equal(background.colour, np.median(np.stack(frames), axis=0).astype(np.uint8))
+    assert background.image() is background.colour
+    grey = estimate_background([frame[:, :, 1] for frame in frames])
+    assert grey.colour is None and grey.image().shape == (12, 16)

@@ -210,10 +210,11 @@ def trajectory_from_video(path, ball_radius_m=None, scale_m_per_px=None, capture
     radius_px = table["radius_px"].to_numpy()[usable]
     extra = dict(attrs or {})
     extra.update(video=str(path), frames=int(len(table)), frames_usable=int(np.count_nonzero(usable)))
-    # the ruler, the targets and the floor are read from the background the ball was tracked against
+    # the ruler, the targets (in colour) and the floor are read from the background the ball was tracked against
+    scene = background.image() if background is not None else None
     background = background.grey if background is not None else None
-    plane = _plane_target(background, targets, extra, path)
-    scales = _independent_scales(background if ruler_tick_m else None, radius_px, ball_radius_m, scale_m_per_px,
+    plane = _plane_target(scene, targets, extra, path)
+    scales = _independent_scales(scene if ruler_tick_m else None, radius_px, ball_radius_m, scale_m_per_px,
                                  ruler_tick_m, extra)
     if targets.points_px is not None:
         scales["points"] = two_point_scale(targets.points_px, targets.distance_m)

@@ -45,11 +45,19 @@ class Background:
         Robust standard deviation of a frame's grey level about the background, grey levels.
     threshold_grey : float
         Foreground threshold on ``|frame - background|``, grey levels.
+    colour : numpy.ndarray or None
+        The scene in colour, uint8 BGR (height, width, 3), for what is read off it in colour (a
+        ruler, a marker); None when the samples were grey.
     """
 
     grey: np.ndarray
     noise_grey: float
     threshold_grey: float
+    colour: np.ndarray | None = None
+
+    def image(self):
+        """The scene as a frame: the colour one where there is one, else the grey levels as uint8."""
+        return self.colour if self.colour is not None else np.clip(np.rint(self.grey), 0, 255).astype(np.uint8)
 
 
 def to_grey(image):
@@ -108,8 +116,13 @@ def estimate_background(samples):
     Returns
     -------
     Background
-        Per-pixel median grey level, robust noise in grey levels and the foreground threshold.
+        Per-pixel median grey level (and colour, for uint8 BGR samples), robust noise in grey levels
+        and the foreground threshold.
     """
+    colour_samples = [np.asarray(sample) for sample in samples]
+    in_colour = len(colour_samples) % 2 == 1 and all(
+        sample.dtype == np.uint8 and sample.ndim == 3 and sample.shape[2] == 3 for sample in colour_samples)
+    colour = median_uint8(colour_samples) if in_colour else None  # cv2.min/max work per channel
     greys = [grey_uint8(sample) for sample in samples]
     if len(greys) % 2 and all(g is not None for g in greys):
         grey = median_uint8(greys).astype(np.float32)
@@ -125,7 +138,7 @@ def estimate_background(samples):
     else:
         noise = 0.0
     threshold = max(NOISE_THRESHOLD_SIGMAS * noise, MIN_THRESHOLD_GREY)
-    return Background(np.ascontiguousarray(grey, dtype=np.float32), noise, threshold)
+    return Background(np.ascontiguousarray(grey, dtype=np.float32), noise, threshold, colour)
 
 
 
@@ -170,6 +183,6 @@ def background_without_ball(samples, balls, background):
     everywhere = covered == len(stack)
     stack[0][everywhere] = background.grey[everywhere]
     grey = np.nanmedian(stack, axis=0).astype(np.float32)
-    return Background(grey, background.noise_grey, background.threshold_grey)
+    return Background(grey, background.noise_grey, background.threshold_grey, background.colour)
 
 
