@@ -16,7 +16,8 @@ from dropfit.video.calibrate import (CAPTURE_RATE_SNAP_TOLERANCE, COMMON_CAPTURE
 from dropfit.physics import STANDARD_GRAVITY_M_S2
 from dropfit.synth import simulate_drop
 from dropfit.video_synth import Camera, FrameRenderer, Scene, default_clips, render_background
-from dropfit.videolog import trajectory_from_video, video_background
+from dropfit.video.track import track_video_and_background
+from dropfit.videolog import trajectory_from_video
 
 #: The ruler's scale must match the renderer's px/m to this relative accuracy.
 RULER_SCALE_RTOL = 1e-3  # 1 (0.1 %)
@@ -55,8 +56,9 @@ def slow_motion_clip(tmp_path_factory):
 
 
 def test_ruler_scale_from_a_rendered_video_matches_px_per_m(slow_motion_clip):
-    """Through MJPEG and noise: 1 cm ticks 7 px apart, the count checked against the 10 cm ticks."""
-    ruler, note = ruler_scale(video_background(slow_motion_clip), 0.01)
+    """Through MJPEG and noise: 1 cm ticks 7 px apart, the count checked against the 10 cm ticks, read off
+    the background the tracker built (as the video path reads it)."""
+    ruler, note = ruler_scale(track_video_and_background(slow_motion_clip).background.image(), 0.01)
     assert ruler is not None, note
     assert ruler.ticks_per_step == 1
     error = ruler.scale_m_per_px * PX_PER_M - 1.0

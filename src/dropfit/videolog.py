@@ -106,29 +106,10 @@ def scale_from_diameter(radius_px, ball_radius_m):
     return scale, scale * median_se / median
 
 
-def video_background(path, samples=7):
-    """Background grey image of a video: the per-pixel median of ``samples`` frames spread over it.
-
-    Returns
-    -------
-    numpy.ndarray or None
-        Grey levels (height, width) of the displayed frames, or None if no frame could be read.
-    """
-    from .video.background import estimate_background
-    from .video.decode import VideoFile
-
-    try:
-        with VideoFile(path) as video:
-            frames = [image for _, image in video.samples(samples)]
-    except InputError:
-        return None
-    return estimate_background(frames).grey if frames else None
-
-
 def find_floor_row(background_grey, bottom_row_px, radius_px):
     """Image row (px, sub-pixel) of the floor's edge, searched within one ball radius of ``bottom_row_px``.
 
-    The floor is the strongest horizontal edge of the background (:func:`video_background`) near
+    The floor is the strongest horizontal edge of the background (the tracker's, in grey) near
     the lowest row the ball's bottom reaches; its sub-pixel row is where the row profile crosses
     halfway between the levels above and below it.
 
