@@ -1,6 +1,6 @@
 """Helpers the tests share (tests import these, never each other): synthetic height logs, bad logs, small
 synthetic video clips, running the ``dropfit`` command line, drawn calibration images (rulers, bands),
-encoded clips, the real data's place and phonesim clips."""
+encoded clips, the real data's place, phonesim clips and a ball drawn into a frame."""
 
 import os
 import pathlib
@@ -10,6 +10,9 @@ import sys
 import numpy as np
 
 from dropfit.synth import sample_height_log, simulate_drop
+
+#: Sub-pixels per pixel and axis with which :func:`disc_coverage` draws a disc.
+SUPERSAMPLING = 8
 
 #: Seconds a single ``dropfit`` call may take (imports included) before the test gives up.
 CALL_TIMEOUT_S = 120  # s
@@ -386,3 +389,33 @@ def render_drop_clip(path, truth, fps, seed=0):
     camera = Camera(160, 220, fps, None, px_per_m=CLIP_PX_PER_M, image_row_of_floor_px=CLIP_FLOOR_ROW_PX,
                     noise_sigma=2.0)
     return render_video(truth, camera, Scene(), 1.7, seed, path)
+
+
+def disc_coverage(shape, cx, cy, r):
+    """Fraction of each pixel covered by a disc (centre cx, cy and radius r, px), by supersampling.
+
+    Pixel (i, j) spans [j-0.5, j+0.5] × [i-0.5, i+0.5] (OpenCV's convention, as the tracker's).
+    Returns a float array of ``shape`` (height, width).
+    """
+    a = np.zeros(shape)
+    h, w = shape
+    x0, x1 = max(int(np.floor(cx - r - 1)), 0), min(int(np.ceil(cx + r + 1)) + 1, w)
+    y0, y1 = max(int(np.floor(cy - r - 1)), 0), min(int(np.ceil(cy + r + 1)) + 1, h)
+    if x1 <= x0 or y1 <= y0:
+        return a
+    offsets = (np.arange(SUPERSAMPLING) + 0.5) / SUPERSAMPLING - 0.5
+    xs = (np.arange(x0, x1)[:, None] + offsets).ravel()
+    ys = (np.arange(y0, y1)[:, None] + offsets).ravel()
+    inside = (xs[None, :] - cx) ** 2 + (ys[:, None] - cy) ** 2 <= r * r
+    a[y0:y1, x0:x1] = inside.reshape(y1 - y0, SUPERSAMPLING, x1 - x0, SUPERSAMPLING).mean(axis=(1, 3))
+    return a
+
+
+def centre_errors(table, truth):
+    """Distance (px) of each tracked centre (``x_px``, ``y_px``) from the true one, truth shape (n, 2)."""
+    return np.hypot(table["x_px"].to_numpy() - truth[:, 0], table["y_px"].to_numpy() - truth[:, 1])
+
+
+def rms(values):
+    """Root mean square."""
+    return float(np.sqrt(np.mean(np.square(values))))

@@ -7,6 +7,7 @@ markers, a tilted camera). The tests hold dropfit to the issue's bar: e per impa
 inside its 95 % interval, rebound heights within ±5 mm, the scale within 0.5 %.
 """
 
+import io
 import math
 
 import numpy as np
@@ -15,6 +16,7 @@ import pytest
 
 import dropfit
 from dropfit.video.targets import to_plane
+from dropfit.video.track import track_video, usable_rows
 from helpers import phone_clip
 
 #: |e − e_true| allowed per impact, and |h − h_true| for rebound heights, m (the issue's bar).
@@ -56,20 +58,20 @@ def _vertical_px_per_m_at_floor(attrs, truth):
     return float(np.hypot(*(above_px - floor_px))) / step_m
 
 
-#: What stops each preset today, measured (issue 10 is open until these pass; strict, so a fix shows).
-GREY_TRACKER_FAILS_YELLOW = ("the tracker works in grey levels: a yellow ball a few grey levels from a grey wall is "
-                             "measured cleanly in 1 % of the frames and the clip is refused")
-GREY_TRACKER_FAILS_CLUTTER = ("the cluttered, tilted clip's ball is measured cleanly in too few frames for three "
-                              "impacts (the plane map itself is right on the truth's centres: tests/test_markers.py)")
+#: What stops the yellow clip today, measured (issue 10 is open until it passes; strict, so a fix shows).
+YELLOW_NEAR_FLOOR = ("tracked in colour, the 7.5 px yellow ball (its colour stored at half resolution) reads up to "
+                     "1.3 px off in the blurred frames next to each contact, where it passes from the green wall to "
+                     "the floor and its colour contrast changes: the analysis gives one impact, e 0.7719 against "
+                     "0.7649, outside its interval")
 
 
 @pytest.mark.parametrize("preset, options, impacts_checked", [
-    pytest.param("yellow_flicker_portrait_120", {"ruler_tick_m": 0.01}, 3,
-                 marks=pytest.mark.xfail(strict=True, reason=GREY_TRACKER_FAILS_YELLOW)),
-    pytest.param("tennis_aruco_tilted", {"marker_size_m": 0.08}, 3,
-                 marks=pytest.mark.xfail(strict=True, reason=GREY_TRACKER_FAILS_CLUTTER)),
+    pytest.param("yellow_flicker_portrait_120", {"ruler_tick_m": 0.01}, 2,
+                 marks=pytest.mark.xfail(strict=True, reason=YELLOW_NEAR_FLOOR)),
+    ("tennis_aruco_tilted", {"marker_size_m": 0.08}, 3),
 ])
 def test_phone_clip_numbers(tmp_path, preset, options, impacts_checked):
+    """The clip gives e per impact within the bar and inside its interval, and the scale within 0.5 %."""
     path, truth = phone_clip(preset, tmp_path, seed=3, downscale=0.5)
     physics = truth["physics"]
     result = dropfit.analyse_recording(path, ball_radius_m=physics["radius_m"], ball_mass_kg=physics["mass_kg"],
@@ -77,3 +79,37 @@ def test_phone_clip_numbers(tmp_path, preset, options, impacts_checked):
     _check(result, truth, impacts_checked)
     assert math.isclose(_vertical_px_per_m_at_floor(result.trajectory.attrs, truth),
                         float(np.hypot(*truth["camera"]["vertical_px_per_m_at_drop_line"])), rel_tol=SCALE_TOLERANCE)
+
+
+@pytest.mark.parametrize("preset, seed, min_fraction", [
+    # measured (seed, downscale 0.5): 80 of 80, 117 of 131, 83 of 154 visible free frames usable; the
+    # white ball's clip repeats every other frame of its 30 Hz capture, and the repeats that the codec
+    # coded again are found only in part: they count as not usable here
+    ("green_board_avi", 1, 0.95),
+    ("yellow_green_tape", 1, 0.85),
+    ("white_pingpong_mov", 1, 0.5),
+])
+def test_phone_clip_ball_is_tracked_in_colour(tmp_path, preset, seed, min_fraction, capsys):
+    """The ball a phone films (green on a white board with its shadow touching it and a hand catching it;
+    yellow on a green wall; white on a light grey wall, portrait with rotation metadata) is tracked in
+    most of the frames where it is in view, free of the hand, within half a pixel of the truth once a
+    constant offset (the shaded ball's colour centroid, at most 1.5 px) is taken out."""
+    path, _ = phone_clip(preset, tmp_path, seed=seed, downscale=0.5)
+    truth = pd.read_csv(path.with_suffix(".frames.csv"))
+    table = track_video(path, progress_stream=io.StringIO())
+    n = min(len(table), len(truth))
+    table, truth = table.iloc[:n], truth.iloc[:n]
+    visible = (truth["in_frame"].astype(bool) & ~truth["hand_visible"].astype(bool) & ~truth["is_duplicate"]
+               & (truth["occluded_fraction"] < 0.01)).to_numpy()
+    usable = usable_rows(table) & visible
+    dx = table["x_px"].to_numpy() - truth["x_px"].to_numpy()
+    dy = table["y_px"].to_numpy() - truth["y_px"].to_numpy()
+    offset = np.median(dx[usable]), np.median(dy[usable])
+    scatter = np.hypot(dx[usable] - offset[0], dy[usable] - offset[1])
+    with capsys.disabled():
+        print(f"\n[phone clips] {preset} [{table.attrs['contrast']}]: {usable.sum()} of {visible.sum()} visible frames "
+              f"usable, offset ({offset[0]:.2f}, {offset[1]:.2f}) px, scatter RMS {np.sqrt(np.mean(scatter ** 2)):.3f} "
+              f"px, max {scatter.max():.2f} px")
+    assert usable.sum() >= min_fraction * visible.sum()
+    assert np.hypot(*offset) <= 1.5
+    assert np.sqrt(np.mean(scatter ** 2)) <= 0.5

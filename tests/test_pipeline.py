@@ -255,6 +255,39 @@ def test_options_are_checked_once_with_one_line(options, words):
     assert "--" in flags and "_" not in flags.split(";")[0].replace("ITF rebound", "")
 
 
+def test_tracker_hints_are_read_from_text_as_the_command_line_and_sample_sheet_give_them():
+    ball, settings = split_options({"ball_colour": "#FF8000", "roi_px": "(10, 20, 300, 400)",
+                                    "ball_at_px": "3 100.5 20", "ball_radius_px": 12})
+    assert ball.colour == (0.0, 128.0, 255.0)  # BGR
+    assert settings.roi_px == (10, 20, 300, 400)
+    assert (settings.ball_at_px, settings.ball_radius_px) == ((3, 100.5, 20.0), 12.0)
+    assert split_options({"ball_colour": "Tennis"})[0].colour == split_options({"ball_colour": "40,225,205"})[0].colour
+    # what the workflow passes on (str of the held tuple) reads back the same
+    assert split_options({"roi_px": str(settings.roi_px)})[1].roi_px == settings.roi_px
+    for name, value in (("roi_px", "5,5,2,9"), ("ball_at_px", "1,2"), ("ball_colour", "mauve")):
+        with pytest.raises(OptionError, match=name):
+            split_options({name: value})
+
+
+def test_tracker_hints_reach_the_video_tracker(tmp_path, monkeypatch):
+    """The hints given as options reach the tracker under its names (the colour in BGR)."""
+    passed = {}
+
+    def fake_track(path, capture_fps=None, **keywords):
+        passed.update(keywords)
+        raise InputError(f"{path}: stopped after tracking")
+
+    monkeypatch.setattr("dropfit.video.track.track_video_and_background", fake_track)
+    ball, settings = split_options({"ball_colour": "red", "roi_px": "0,0,100,200", "ball_at_px": "5,50,60",
+                                    "ball_radius_px": 8.0})
+    with pytest.raises(InputError, match="stopped after tracking"):
+        pipeline.measure_recording(tmp_path / "clip.avi", ball, settings)
+    assert passed["expected_radius_px"] == 8.0
+    hints = passed["hints"]
+    assert (hints.roi_px, hints.ball_at_px, hints.ball_colour_bgr) == ((0, 0, 100, 200), (5, 50.0, 60.0),
+                                                                       (40.0, 40.0, 200.0))
+
+
 def test_unknown_settings_are_refused():
     with pytest.raises(TypeError, match="unknown setting gravity"):
         Settings().replace(gravity=9.81)

@@ -14,6 +14,7 @@ from dropfit.video.detect import (QUALITY_BLURRED, QUALITY_DUPLICATE, QUALITY_LO
                                   QUALITY_PARTIAL)
 from dropfit.video.track import TRACKED_CENTRE_CORRELATION, track_frames, track_video, usable_rows
 from dropfit.video_synth import Camera, FrameRenderer, Scene, default_clips
+from helpers import centre_errors, disc_coverage, rms
 
 CLEAN_RMS_TOLERANCE_PX = 0.1  # px, centre error RMS on clean frames
 NOISY_RMS_TOLERANCE_PX = 0.3  # px, centre error RMS with noise σ = 5 grey levels and motion blur
@@ -23,26 +24,9 @@ HELD_TOLERANCE_PX = 1.5  # px, approximate centre of occluded (held) frames
 TIME_TOLERANCE_S = 1e-6  # s
 PARTIAL_RMS_TOLERANCE_PX = 0.3  # px, centre error RMS of partial (edge-cut) frames, noise σ = 2 grey levels
 NOISE_GREY = 5.0  # grey levels
-SUPERSAMPLING = 8  # sub-pixels per pixel and axis
 SUBFRAMES = 8  # sub-frames averaged for motion blur
 EXPOSURE_FRAMES = 0.8  # exposure, in frame intervals
 SIZE = (240, 320)  # px, height and width
-
-
-def coverage(shape, cx, cy, r):
-    """Fraction of each pixel covered by a disc; pixel (i, j) spans [j-0.5, j+0.5] × [i-0.5, i+0.5]."""
-    a = np.zeros(shape)
-    h, w = shape
-    x0, x1 = max(int(np.floor(cx - r - 1)), 0), min(int(np.ceil(cx + r + 1)) + 1, w)
-    y0, y1 = max(int(np.floor(cy - r - 1)), 0), min(int(np.ceil(cy + r + 1)) + 1, h)
-    if x1 <= x0 or y1 <= y0:
-        return a
-    offsets = (np.arange(SUPERSAMPLING) + 0.5) / SUPERSAMPLING - 0.5
-    xs = (np.arange(x0, x1)[:, None] + offsets).ravel()
-    ys = (np.arange(y0, y1)[:, None] + offsets).ravel()
-    inside = (xs[None, :] - cx) ** 2 + (ys[:, None] - cy) ** 2 <= r * r
-    a[y0:y1, x0:x1] = inside.reshape(y1 - y0, SUPERSAMPLING, x1 - x0, SUPERSAMPLING).mean(axis=(1, 3))
-    return a
 
 
 def textured_background(rng, shape=SIZE, level=100.0, texture=6.0):
@@ -55,7 +39,7 @@ def textured_background(rng, shape=SIZE, level=100.0, texture=6.0):
 
 def render(background, centres, radius, ball_grey, rng=None, noise=0.0, colour=True, overlay=None):
     """One uint8 frame: the disc averaged over the exposure's centres, optional noise and overlay."""
-    a = np.mean([coverage(background.shape, cx, cy, radius) for cx, cy in centres], axis=0)
+    a = np.mean([disc_coverage(background.shape, cx, cy, radius) for cx, cy in centres], axis=0)
     image = background * (1 - a) + ball_grey * a
     if overlay is not None:
         mask, value = overlay
@@ -85,14 +69,6 @@ def clip_frames(rng, n=40, radius=12.3, ball_grey=220.0, noise=0.0, blur=False, 
         frames.append(render(background, centres, radius, ball_grey, rng, noise, colour))
         truth.append(np.mean(centres, axis=0))
     return frames, np.array(truth)
-
-
-def centre_errors(table, truth):
-    return np.hypot(table["x_px"].to_numpy() - truth[:, 0], table["y_px"].to_numpy() - truth[:, 1])
-
-
-def rms(values):
-    return float(np.sqrt(np.mean(np.square(values))))
 
 
 def report(capsys, text):
@@ -255,7 +231,7 @@ def test_throughput_against_decoding(tmp_path, capsys):
     for t in range(n):
         cx, cy = 200.3 + 4.1 * t, 60.2 + 0.012 * t * t
         x0, x1, y0, y1 = int(cx - 20), int(cx + 21), int(cy - 20), int(cy + 21)
-        a = coverage((y1 - y0, x1 - x0), cx - x0, cy - y0, radius)[:, :, None]
+        a = disc_coverage((y1 - y0, x1 - x0), cx - x0, cy - y0, radius)[:, :, None]
         frame = base.copy()
         frame[y0:y1, x0:x1] = np.round(frame[y0:y1, x0:x1] * (1 - a) + 220.0 * a).astype(np.uint8)
         frames.append(frame)

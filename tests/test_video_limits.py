@@ -86,12 +86,14 @@ def test_blurred_frames_count_as_clean(drop):
 
 
 def test_recording_violations_name_each_limit_with_value_and_limit():
-    good = dict(ball_radius_px=5.0, clean_fraction=0.9)
+    good = dict(ball_radius_px=5.0, clean_fraction=0.9, clean_frames=200)
     assert video_limits.recording_violations(good) == []
     small = video_limits.recording_violations(dict(good, ball_radius_px=1.6))
     assert small == [f"tracked ball radius: 1.60 px < {video_limits.MIN_BALL_RADIUS_PX:g} px"]
     sparse = video_limits.recording_violations(dict(good, clean_fraction=0.1, ball_radius_px=np.nan))
     assert sparse == [f"frames measured cleanly: 10% < {video_limits.MIN_CLEAN_FRACTION:.0%}"]
+    one = video_limits.recording_violations(dict(good, clean_frames=1))  # one clean frame is 100 % of its span
+    assert one == [f"frames measured cleanly: 1 < {video_limits.MIN_CLEAN_FRAMES}"]
 
 
 def test_flight_violation_names_the_impact_and_the_short_flight():
@@ -147,7 +149,9 @@ def test_a_ball_tracked_smaller_than_the_limit_is_refused(tmp_path, monkeypatch,
 
 def test_a_recording_with_too_few_clean_frames_is_refused(tmp_path, monkeypatch, drop):
     message = refusal_of(tmp_path, monkeypatch, tracked_table(drop, fps=120.0, clean_every=5))
-    assert message == f"{tmp_path / 'clip.avi'}: not analysable: frames measured cleanly: 20% < 30%"
+    assert message.startswith(f"{tmp_path / 'clip.avi'}: not analysable: frames measured cleanly: 20% < 30% "
+                              f"(the ball not found in 80% of the frames)")
+    assert "--ball-at-px" in message and "--roi-px" in message and "--ball-colour" in message
     assert "\n" not in message
 
 

@@ -36,10 +36,11 @@ from .videolog import VIDEO_SUFFIXES, is_video, scale_targets_of, trajectory_fro
 
 #: Settings that apply to measuring a recording, not to an already measured trajectory.
 MEASURE_ONLY_SETTINGS = ("scale_m_per_px", "ruler_tick_m", "scale_points_px", "scale_distance_m", "marker_size_m",
-                         "board_square_m", "board_inner_corners", "capture_fps")
+                         "board_square_m", "board_inner_corners", "capture_fps", "ball_radius_px", "roi_px",
+                         "ball_at_px")
 
 
-def track_recording(path, settings=None):
+def track_recording(path, settings=None, ball=None):
     """A video → its tracked table (every frame's ball in px and quality flag), as :func:`measure_recording`
     tracks it.
 
@@ -48,7 +49,10 @@ def track_recording(path, settings=None):
     path : str or pathlib.Path
         The video.
     settings : dropfit.settings.Settings, optional
-        The capture rate (frames/s) of a slow-motion file.
+        The capture rate (frames/s) of a slow-motion file, and what the user says of the ball in the
+        image: its radius (px), a region of interest, its centre in one frame.
+    ball : dropfit.settings.Ball, optional
+        The ball; its colour, when given, is a hint to the tracker.
 
     Returns
     -------
@@ -61,11 +65,14 @@ def track_recording(path, settings=None):
     dropfit.errors.InputError
         For a file that is not a readable video, or one in which no ball is found.
     """
-    from .video.track import track_video_and_background
+    from .video.track import TrackerHints, track_video_and_background
 
     if not is_video(path):
         raise InputError(f"{shown_path(path)}: is not a video ({', '.join(VIDEO_SUFFIXES)}); only a video is tracked")
-    return track_video_and_background(path, capture_fps=(settings or Settings()).capture_fps)
+    settings = settings or Settings()
+    hints = TrackerHints(settings.roi_px, settings.ball_at_px, (ball or Ball()).colour)
+    return track_video_and_background(path, capture_fps=settings.capture_fps,
+                                      expected_radius_px=settings.ball_radius_px, hints=hints)
 
 
 def measure_recording(path, ball=None, settings=None, *, sample_id=None, tracked=None):
@@ -105,6 +112,7 @@ def measure_recording(path, ball=None, settings=None, *, sample_id=None, tracked
              "gravity_m_s2": gravity.value_m_s2, "gravity_se_m_s2": gravity.se_m_s2, "gravity_source": gravity.source}
     scale = settings.scale_m_per_px
     if is_video(path):
+        tracked = tracked if tracked is not None else track_recording(path, settings, ball)
         trajectory = trajectory_from_video(path, ball.radius_m, scale and abs(scale), settings.capture_fps,
                                            gravity.value_m_s2, attrs, settings.ruler_tick_m,
                                            scale_targets_of(settings), tracked)

@@ -63,6 +63,9 @@ class Option:
         The range of a number; ``low_allowed`` says whether ``low`` itself is allowed.
     choices : tuple of str, optional
         The allowed values of a text option.
+    parse : callable, optional
+        Reads a text option's value (text or a sequence) into what the option holds; raises
+        ValueError (or TypeError) for a value it cannot read.
     config : tuple of str, optional
         Its key path in the workflow's ``config/config.yaml``.
     column : bool
@@ -79,6 +82,7 @@ class Option:
     high: float = math.inf
     low_allowed: bool = True
     choices: tuple | None = None
+    parse: object = None
     config: tuple | None = None
     column: bool = False
     text: bool = False
@@ -95,6 +99,11 @@ class Option:
         if self.text:
             if self.choices and value not in self.choices:
                 raise OptionError(f"{{0}} is '{shown(value)}'; give one of {', '.join(self.choices)}", self.name)
+            if self.parse is not None:
+                try:
+                    return self.parse(value)
+                except (ValueError, TypeError):
+                    raise OptionError(f"{{0}} is '{shown(str(value))}'; give {self.what}", self.name) from None
             return value
         if isinstance(value, bool) or not isinstance(value, numbers.Real):
             raise OptionError(f"{{0}} is '{shown(value)}', not a number; give {self.what}", self.name)
@@ -107,6 +116,55 @@ class Option:
         if not inside:
             raise OptionError(f"{{0}} is {value:g}; give {self.what}", self.name)
         return value
+
+
+#: Ball colours by name, BGR grey levels (as a camera in daylight sees them, roughly).
+BALL_COLOURS = {"white": (240.0, 240.0, 240.0), "black": (30.0, 30.0, 30.0), "yellow": (30.0, 220.0, 230.0),
+                "tennis": (40.0, 225.0, 205.0), "green": (60.0, 170.0, 60.0), "red": (40.0, 40.0, 200.0),
+                "orange": (30.0, 130.0, 240.0), "blue": (200.0, 100.0, 30.0), "pink": (180.0, 120.0, 240.0)}
+
+
+def _numbers(value, count):
+    """``count`` finite numbers from text ("1,2,3", "1 2 3", "(1, 2, 3)") or a sequence; ValueError otherwise."""
+    parts = value.strip().strip("()[]").replace(",", " ").split() if isinstance(value, str) else list(value)
+    if len(parts) != count:
+        raise ValueError(f"{len(parts)} numbers, not {count}")
+    numbers = [float(part) for part in parts]
+    if not all(math.isfinite(number) for number in numbers):
+        raise ValueError("not finite")
+    return numbers
+
+
+def parse_roi_px(value):
+    """A region of interest ``x0, y0, x1, y1`` (px; columns x0 ≤ x < x1, rows y0 ≤ y < y1) as a tuple of int."""
+    x0, y0, x1, y1 = (int(round(number)) for number in _numbers(value, 4))
+    if not (0 <= x0 < x1 and 0 <= y0 < y1):
+        raise ValueError("empty region")
+    return x0, y0, x1, y1
+
+
+def parse_ball_at_px(value):
+    """The ball's position in one frame, ``frame, x, y`` (frame index from 0; centre in px) as (int, float, float)."""
+    frame, x, y = _numbers(value, 3)
+    if frame < 0 or frame != int(frame) or x < 0 or y < 0:
+        raise ValueError("not a frame index and a position")
+    return int(frame), x, y
+
+
+def parse_ball_colour(value):
+    """A colour as BGR grey levels: a name of :data:`BALL_COLOURS`, ``#rrggbb`` (hex, red first), or ``b, g, r``."""
+    if isinstance(value, str) and value.strip().lower() in BALL_COLOURS:
+        return BALL_COLOURS[value.strip().lower()]
+    if isinstance(value, str) and value.strip().startswith("#"):
+        digits = value.strip()[1:]
+        if len(digits) != 6:
+            raise ValueError("not #rrggbb")
+        red, green, blue = (float(int(digits[i:i + 2], 16)) for i in (0, 2, 4))
+        return blue, green, red
+    colour = tuple(_numbers(value, 3))
+    if not all(0.0 <= level <= 255.0 for level in colour):
+        raise ValueError("outside 0-255")
+    return colour
 
 
 _MEASURE, _ANALYSE, _SITE = ("measure", "run"), ("analyse", "run"), ("measure", "analyse", "run")
@@ -124,6 +182,17 @@ OPTIONS = {option.name: option for option in (
     Option("scale_m_per_px", "m per px for logs in px (negative if the axis points down) or videos; "
            "default: calibrated (videos: points > marker or board > ruler > gravity > ball diameter; px logs: gravity)", _MEASURE,
            "metres per pixel (negative for image rows), not 0", column=True),
+    Option("ball_colour", "video: the ball's colour, a name (" + ", ".join(BALL_COLOURS) + "), #rrggbb or b,g,r "
+           "(0-255): shadows and a hand are told from it", _MEASURE,
+           "a colour name (" + ", ".join(BALL_COLOURS) + "), #rrggbb or three levels b,g,r from 0 to 255",
+           parse=parse_ball_colour, text=True, column=True),
+    Option("ball_radius_px", "video: the ball's radius in px (default: learnt from the clean frames)", _MEASURE,
+           "the ball's radius in px", 0.0, 2000.0, False, column=True),
+    Option("roi_px", "video: region of interest x0,y0,x1,y1 in px: the ball is looked for only there", _MEASURE,
+           "four pixel coordinates x0,y0,x1,y1 with x0 < x1 and y0 < y1", parse=parse_roi_px, text=True, column=True),
+    Option("ball_at_px", "video: the ball's centre in one frame, frame,x,y (frame index from 0, px): tracking "
+           "starts there", _MEASURE, "a frame index and the ball's centre in px, frame,x,y", parse=parse_ball_at_px,
+           text=True, column=True),
     Option("ruler_tick_m", "video: spacing in m of the finest ticks of a ruler in the ball's plane (scale from it)",
            _MEASURE, "the ruler's finest tick spacing in m (e.g. 0.01)", 0.0, 1.0, False, column=True),
     Option("scale_points_px", "video: two image points a known distance apart, as 'x1,y1,x2,y2' in px of the "
@@ -166,7 +235,7 @@ OPTIONS = {option.name: option for option in (
 )}
 
 #: Options of :class:`Ball`: option name → field name.
-BALL_FIELDS = {"ball_radius_m": "radius_m", "ball_mass_kg": "mass_kg", "ball_type": "type"}
+BALL_FIELDS = {"ball_radius_m": "radius_m", "ball_mass_kg": "mass_kg", "ball_type": "type", "ball_colour": "colour"}
 
 
 @dataclass(frozen=True)
@@ -183,11 +252,15 @@ class Ball:
     type : str, optional
         Kind of ball (option ``ball_type``): one of :data:`dropfit.balls.BALL_KINDS`, any case,
         stored in lower case. ``tennis`` gets the ITF verdict.
+    colour : (float, float, float), optional
+        The ball's colour in a video, BGR grey levels (option ``ball_colour``: a name, ``#rrggbb``
+        or ``b,g,r``): tells the tracker whether its shadow and a hand can be told from it by colour.
     """
 
     radius_m: float | None = None
     mass_kg: float | None = None
     type: str | None = None
+    colour: tuple | None = None
 
     def __post_init__(self):
         for option, name in BALL_FIELDS.items():
@@ -270,6 +343,15 @@ class Settings:
     capture_fps : float, optional
         Capture rate in frames/s of a slow-motion video whose file states another rate. Default
         None: the file's rate, checked against gravity where a scale allows.
+    ball_radius_px : float, optional
+        Video: the ball's radius in px. Default None: learnt from the frames where it is measured
+        cleanly.
+    roi_px : (int, int, int, int), optional
+        Video: region of interest x0, y0, x1, y1 in px (columns x0 ≤ x < x1, rows y0 ≤ y < y1):
+        the ball is looked for only there. Default None: the whole frame.
+    ball_at_px : (int, float, float), optional
+        Video: the ball's centre (x, y in px) in one frame (index from 0): tracking starts there.
+        Default None: the ball is searched for.
     gravity_m_s2 : float, optional
         g at the site in m/s², taken as exact. It wins over ``latitude_deg``. Default None: see
         :meth:`site_gravity`.
@@ -304,6 +386,9 @@ class Settings:
     floor_m: float | None = None
     height_reference: str = "centre"
     capture_fps: float | None = None
+    ball_radius_px: float | None = None
+    roi_px: tuple | None = None
+    ball_at_px: tuple | None = None
     gravity_m_s2: float | None = None
     latitude_deg: float | None = None
     altitude_m: float | None = None
@@ -483,7 +568,7 @@ def option_default(name):
     return next(item.default for item in dataclasses.fields(owner) if item.name == key)
 
 
-__all__ = ["BALL_FIELDS", "OPTIONS", "SITE_OPTIONS", "Ball", "Option", "OptionError", "Settings",
+__all__ = ["BALL_COLOURS", "BALL_FIELDS", "OPTIONS", "SITE_OPTIONS", "Ball", "Option", "OptionError", "Settings",
            "SiteGravity", "option_default", "settings_from_config", "split_options", "stage_arguments",
-           "workflow_values"]
+           "parse_ball_at_px", "parse_ball_colour", "parse_roi_px", "workflow_values"]
 

@@ -63,7 +63,7 @@ def measure(log_path, out_path, ball=None, settings=None, sample_id=None, track_
     """
     tracked = None
     if track_path is not None:
-        tracked = track_recording(log_path, settings)
+        tracked = track_recording(log_path, settings, ball)
         write_table(track_path, tracked.table)
     write_trajectory(out_path, measure_recording(log_path, ball, settings, sample_id=sample_id, tracked=tracked))
 
@@ -85,7 +85,7 @@ def overlay(video, sheet_path, clip_path=None, results_dir=None, ball=None, sett
     if results_dir is not None:
         scene = scene_from_results(results_dir)
     else:
-        tracked = track_recording(video, settings)
+        tracked = track_recording(video, settings, ball)
         scene = refusal_aware_scene(
             tracked.table, lambda: measure_recording(video, ball, settings, sample_id=sample_id, tracked=tracked),
             lambda trajectory: _analysis_parts(analyse_trajectory(trajectory, settings), trajectory.attrs))
@@ -178,7 +178,7 @@ def run(recording, out_dir, ball=None, settings=None, sample_id=None):
         The result (:func:`dropfit.pipeline.process_recording`); ``fit.json`` is its ``to_dict()``.
     """
     video = isinstance(recording, (str, os.PathLike)) and is_video(recording)
-    tracked = track_recording(recording, settings) if video else None
+    tracked = track_recording(recording, settings, ball) if video else None
     result = process_recording(recording, ball, settings, sample_id=sample_id, tracked=tracked)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)

@@ -55,6 +55,13 @@ class Background:
     threshold_grey: float
     colour: np.ndarray | None = None
 
+    def cropped(self, left, top, right, bottom):
+        """The background of the region columns ``left ≤ x < right``, rows ``top ≤ y < bottom`` (px)."""
+        if (left, top, right, bottom) == (0, 0, self.grey.shape[1], self.grey.shape[0]):
+            return self
+        colour = None if self.colour is None else self.colour[top:bottom, left:right]
+        return Background(self.grey[top:bottom, left:right], self.noise_grey, self.threshold_grey, colour)
+
     def image(self):
         """The scene as a frame: the colour one where there is one, else the grey levels as uint8."""
         return self.colour if self.colour is not None else np.clip(np.rint(self.grey), 0, 255).astype(np.uint8)
@@ -119,7 +126,10 @@ def estimate_background(samples):
         Per-pixel median grey level (and colour, for uint8 BGR samples), robust noise in grey levels
         and the foreground threshold.
     """
-    colour_samples = [np.asarray(sample) for sample in samples]
+    samples = [np.asarray(sample) for sample in samples]
+    if len(samples) % 2 == 0 and len(samples) >= 4:
+        samples = samples[:-1]  # an odd count has a middle value: the uint8 median of a sorting network
+    colour_samples = samples
     in_colour = len(colour_samples) % 2 == 1 and all(
         sample.dtype == np.uint8 and sample.ndim == 3 and sample.shape[2] == 3 for sample in colour_samples)
     colour = median_uint8(colour_samples) if in_colour else None  # cv2.min/max work per channel
@@ -138,7 +148,46 @@ def estimate_background(samples):
     else:
         noise = 0.0
     threshold = max(NOISE_THRESHOLD_SIGMAS * noise, MIN_THRESHOLD_GREY)
+    grey, colour = _most_agreed(samples, grey, colour, threshold)
     return Background(np.ascontiguousarray(grey, dtype=np.float32), noise, threshold, colour)
+
+
+def _most_agreed(samples, grey, colour, threshold):
+    """The median, except where most samples disagree with it: there the sample most others agree with.
+
+    A hand that holds the ball near the floor for more than half of the clip, or a ball bouncing
+    low, makes the median of those pixels a blend of scene and foreground, which no sample shows.
+    Where fewer than half of the samples are within ``threshold`` (grey levels, colour distance
+    for colour samples) of the median, the background takes the value of the sample that the most
+    samples are within ``threshold`` of (the median of those samples): the scene, seen whenever the
+    moving foreground is elsewhere.
+    """
+    values = np.stack([np.asarray(sample) for sample in samples]).astype(np.float32) if colour is not None else \
+        np.stack([to_grey(sample) for sample in samples])
+    median = (colour if colour is not None else grey).astype(np.float32)
+    k = len(samples)
+
+    def distance(a, b):
+        return np.sqrt(((a - b) ** 2).sum(axis=-1)) if colour is not None else np.abs(a - b)
+
+    near_median = (distance(values, median[None]) <= threshold).sum(axis=0)
+    unsettled = near_median < (k + 1) // 2
+    if not unsettled.any():
+        return grey, colour
+    chosen = values[:, unsettled]  # (k, n[, 3])
+    agreement = np.stack([(distance(chosen, chosen[i][None]) <= threshold).sum(axis=0) for i in range(k)])
+    most = chosen[np.argmax(agreement, axis=0), np.arange(chosen.shape[1])]
+    agreeing = distance(chosen, most[None]) <= threshold
+    # the median of the samples that agree: less noisy than one sample
+    best = np.nanmedian(np.where(agreeing[..., None] if colour is not None else agreeing, chosen, np.nan), axis=0)
+    grey = grey.copy()
+    if colour is not None:
+        colour = colour.copy()
+        colour[unsettled] = np.clip(np.rint(best), 0, 255).astype(np.uint8)
+        grey[unsettled] = to_grey(colour[unsettled][None])[0]
+    else:
+        grey[unsettled] = best
+    return grey, colour
 
 
 
@@ -160,8 +209,9 @@ def background_without_ball(samples, balls, background):
     Background or None
         None when no pixel is covered by the ball (a disc of ``BALL_MASK_RADII`` radii plus
         ``BALL_MASK_MARGIN_PX``) in more than half of the samples: the median is then the scene.
-        Else the per-pixel median of the uncovered samples (the first background where every
-        sample is covered), with the first background's noise and threshold.
+        Else, where the ball covered more than half of the samples (so their median is the ball),
+        the per-pixel median of the uncovered samples, and elsewhere the first background (where
+        every sample is covered too), with the first background's noise and threshold.
     """
     balls = np.asarray(balls, float).reshape(-1, 3)
     found = np.isfinite(balls).all(axis=1)
@@ -169,20 +219,27 @@ def background_without_ball(samples, balls, background):
         return None
     typical_radius = float(np.median(balls[found, 2]))
     height, width = background.grey.shape
-    stack = np.stack([to_grey(sample) for sample in samples])
     rows, columns = np.ogrid[:height, :width]
-    covered = np.zeros((height, width), np.int32)
-    for grey, (x, y, radius), is_found in zip(stack, balls, found):
+    discs = np.zeros((len(balls), height, width), bool)
+    for disc, (x, y, radius), is_found in zip(discs, balls, found):
         if is_found:
             reach = BALL_MASK_RADII * max(radius, typical_radius) + BALL_MASK_MARGIN_PX
-            disc = (columns - x) ** 2 + (rows - y) ** 2 <= reach * reach
-            grey[disc] = np.nan
-            covered += disc
-    if covered.max() <= len(stack) // 2:
+            disc[...] = (columns - x) ** 2 + (rows - y) ** 2 <= reach * reach
+    covered = discs.sum(axis=0)
+    if covered.max() <= len(balls) // 2:
         return None
-    everywhere = covered == len(stack)
-    stack[0][everywhere] = background.grey[everywhere]
-    grey = np.nanmedian(stack, axis=0).astype(np.float32)
-    return Background(grey, background.noise_grey, background.threshold_grey, background.colour)
-
+    # only pixels the ball covered in more than half of the samples (so in their median) change; where
+    # it covered all, the first background stays
+    changed = (covered > len(balls) // 2) & (covered < len(balls))
+    grey = background.grey.copy()
+    greys = np.stack([to_grey(sample)[changed] for sample in samples])
+    greys[discs[:, changed]] = np.nan
+    grey[changed] = np.nanmedian(greys, axis=0)
+    colour = background.colour
+    if colour is not None:
+        colour = colour.copy()
+        colours = np.stack([np.asarray(sample)[changed] for sample in samples]).astype(np.float32)
+        colours[discs[:, changed]] = np.nan
+        colour[changed] = np.clip(np.rint(np.nanmedian(colours, axis=0)), 0, 255).astype(np.uint8)
+    return Background(grey, background.noise_grey, background.threshold_grey, colour)
 

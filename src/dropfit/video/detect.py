@@ -58,6 +58,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..numerics import least_squares_covariance, robust_sigma
+from .contrast import chromaticity
 from .opencv import cv2
 
 QUALITY_OK = "ok"
@@ -71,6 +72,10 @@ QUALITY_LOST = "lost"
 QUALITY_DUPLICATE = "duplicate"
 
 QUALITY_BLURRED = "blurred"
+
+#: A blob whose chromaticity is farther than this from the ball's given colour is not the ball (the share
+#: of a channel in the sum: a red ball is about (0.14, 0.14, 0.71), a green one (0.2, 0.6, 0.2)).
+MAX_CHROMATICITY_DISTANCE = 0.15
 
 #: Smallest ball radius the tracker looks for, px.
 MIN_RADIUS_PX = 2.0
@@ -103,6 +108,10 @@ STREAK_RADIUS_TOLERANCE = 0.15
 #: ... and its sweep is at most this multiple of the predicted travel in a frame interval (plus 2 px):
 #: the exposure is at most a frame interval.
 MAX_STREAK_TRAVEL_RATIO = 1.3
+
+#: ... and it is symmetric: its contrast-weighted centroid along the motion is within this fraction of
+#: its length (plus half a pixel) from its middle.
+MAX_STREAK_ASYMMETRY = 0.05
 
 #: A ball whose measured area is below this fraction of the expected area is partly hidden.
 OCCLUDED_AREA_FRACTION = 0.9
@@ -293,11 +302,13 @@ def _fit_outline(coverage, points, centre, radius, radius_ref_px):
     return fit_circle_geometric(edge[inlier, 0], edge[inlier, 1], fit[:2], fit[2], fixed)
 
 
-def _is_streak(filled, radius_ref_px, motion_px):
+def _is_streak(filled, contrast, radius_ref_px, motion_px):
     """Whether a blob (uint8 mask) is a ball of radius ``radius_ref_px`` blurred along ``motion_px``.
 
     A ball moving during the exposure draws a stadium: a disc of its radius swept along its motion
-    over at most its travel in a frame interval, ``motion_px`` (dx, dy), px.
+    over at most its travel in a frame interval, ``motion_px`` (dx, dy), px, symmetric about its
+    middle: the ``contrast``-weighted centroid lies within ``MAX_STREAK_ASYMMETRY`` of the stadium's
+    length from the middle (a ball with its shadow attached behind it is heavier at the ball's end).
     """
     travel = math.hypot(*motion_px)
     if not radius_ref_px or travel == 0.0:
@@ -313,6 +324,10 @@ def _is_streak(filled, radius_ref_px, motion_px):
         return False
     middle_along = (along[inside].min() + along[inside].max()) / 2.0
     middle_across = (across[inside].min() + across[inside].max()) / 2.0
+    weight = np.abs(contrast[inside])
+    if weight.sum() > 0 and abs(float(np.average(along[inside], weights=weight)) - middle_along) > (
+            MAX_STREAK_ASYMMETRY * (sweep + 2.0 * half_width) + 0.5):
+        return False
     beyond = np.maximum(np.abs(along - middle_along) - max(sweep, 0.0) / 2.0, 0.0)
     stadium = np.hypot(beyond, across - middle_across) <= half_width
     return np.count_nonzero(stadium & inside) >= MIN_STREAK_OVERLAP * np.count_nonzero(stadium | inside)
@@ -387,7 +402,7 @@ def measure_ball(grey, background, threshold_grey, centre_guess, radius_ref_px=N
                 or filled_area < MIN_ELLIPSE_FILL * 4 * math.pi * math.sqrt(major * minor))
     if radius_ref_px:
         attached |= filled_area > ATTACHED_AREA_FRACTION * math.pi * (radius_ref_px + 1.0) ** 2
-    streak = attached and motion_px is not None and _is_streak(filled, radius_ref_px, motion_px)
+    streak = attached and motion_px is not None and _is_streak(filled, diff, radius_ref_px, motion_px)
     attached &= not streak
     if attached or at_image_edge:
         # the largest inscribed circle: the ball, when what is attached is narrower than the ball
@@ -470,44 +485,59 @@ def measure_ball(grey, background, threshold_grey, centre_guess, radius_ref_px=N
     return BallMeasurement(x, y, radius, quality, truncated)
 
 
-def find_ball(grey, background, expected_radius_px=None):
-    """Search a whole frame for the ball.
+def _centre_colour(frame, blob):
+    """Median BGR of a frame within half a blob's radius of its centre."""
+    x, y, radius = blob[:3]
+    reach = max(0.5 * radius, 1.0)
+    x0, y0 = max(int(x - reach), 0), max(int(y - reach), 0)
+    window = frame[y0:int(y + reach) + 1, x0:int(x + reach) + 1].reshape(-1, 3)
+    return np.median(window, axis=0) if window.size else np.zeros(3)
+
+
+def find_blobs(frame, background, contrast, expected_radius_px=None, gain=1.0):
+    """Round foreground blobs of a whole frame: the candidates for the ball.
 
     Parameters
     ----------
-    grey : numpy.ndarray
-        Grey levels of the frame (uint8 or float32).
+    frame : numpy.ndarray
+        The frame, grey or BGR uint8 (BGR for a colour contrast).
     background : Background
         The static scene.
+    contrast : dropfit.video.contrast.Contrast
+        The channel in which the ball stands out, with its threshold.
     expected_radius_px : float, optional
         Expected radius, px; blobs whose inscribed radius is far from it are ignored.
+    gain : float
+        The frame's gain against the background (:func:`dropfit.video.contrast.frame_gain`).
 
     Returns
     -------
-    (float, float, float) or None
-        Approximate centre x, y and radius, px; None when no blob can be the ball. Lone round
-        blobs are preferred over merged ones, then the largest inscribed circle wins.
+    list of (float, float, float, bool)
+        Per blob (the 50 largest), the centre x, y and radius of its largest inscribed circle, px
+        (approximate: searched at a reduced size), and whether it is a lone disc (no more area than
+        ``MAX_FILL_RATIO`` times the circle's plus a perimeter's worth).
     """
     if expected_radius_px:
         scale = int(np.clip(expected_radius_px // 4, 1, 4))
     else:
         scale = 2
+    colour = background.colour
     if scale > 1:
-        size = (grey.shape[1] // scale, grey.shape[0] // scale)
-        small = cv2.resize(grey[: size[1] * scale, : size[0] * scale], size,
-                           interpolation=cv2.INTER_AREA).astype(np.float32)
-        small_bg = cv2.resize(background.grey[: size[1] * scale, : size[0] * scale], size,
-                              interpolation=cv2.INTER_AREA)
+        size = (frame.shape[1] // scale, frame.shape[0] // scale)
+
+        def shrink(image):
+            return cv2.resize(image[: size[1] * scale, : size[0] * scale], size, interpolation=cv2.INTER_AREA)
+
+        frame, background_grey = shrink(frame), shrink(background.grey)
+        colour = shrink(colour) if colour is not None else None
     else:
-        small, small_bg = grey.astype(np.float32, copy=False), background.grey
-    mask = (cv2.absdiff(small, small_bg) > background.threshold_grey).astype(np.uint8)
+        background_grey = background.grey
+    signal = contrast.image(frame, background_grey, colour, gain)
+    mask = (np.abs(signal) > contrast.threshold).astype(np.uint8)
     count, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
-    if count < 2:
-        return None
     min_area = max(2.0, math.pi * (MIN_RADIUS_PX / scale) ** 2)
-    order = np.argsort(stats[1:, cv2.CC_STAT_AREA])[::-1][:50] + 1
-    best, best_key = None, None
-    for label in order:
+    blobs = []
+    for label in np.argsort(stats[1:, cv2.CC_STAT_AREA])[::-1][:50] + 1:
         x0, y0, w, h, area = stats[label]
         if area < min_area:
             break
@@ -520,12 +550,31 @@ def find_ball(grey, background, expected_radius_px=None):
             continue
         if expected_radius_px and not 0.5 * expected_radius_px <= radius <= 1.5 * expected_radius_px + scale:
             continue
-        lone = area <= MAX_FILL_RATIO * math.pi * r_in ** 2 + 2 * math.pi * r_in
-        key = (lone, -abs(radius - expected_radius_px) if expected_radius_px else radius)
-        if best_key is None or key > best_key:
-            x = (x0 + ix - 1 + 0.5) * scale - 0.5
-            y = (y0 + iy - 1 + 0.5) * scale - 0.5
-            best, best_key = (x, y, radius), key
-    return best
+        lone = bool(area <= MAX_FILL_RATIO * math.pi * r_in ** 2 + 2 * math.pi * r_in)
+        blobs.append(((x0 + ix - 1 + 0.5) * scale - 0.5, (y0 + iy - 1 + 0.5) * scale - 0.5, radius, lone))
+    return blobs
 
 
+def find_ball(frame, background, contrast, expected_radius_px=None, gain=1.0, fixtures=(), colour_bgr=None):
+    """Search a whole frame for the ball: of :func:`find_blobs`, a lone disc before a merged blob, then
+    the radius nearest the expected one (without one, the largest).
+
+    ``fixtures`` are blobs that stay in one place in the whole clip (x, y, radius in px): blobs
+    centred within a radius of one are not the ball. With the ball's colour ``colour_bgr`` (BGR
+    levels) given, a blob whose centre's chromaticity (:func:`dropfit.video.contrast.chromaticity`)
+    is farther than ``MAX_CHROMATICITY_DISTANCE`` from it is not the ball.
+
+    Returns
+    -------
+    (float, float, float, bool) or None
+        As one blob of :func:`find_blobs`; None when there is none.
+    """
+    blobs = [blob for blob in find_blobs(frame, background, contrast, expected_radius_px, gain)
+             if not any(math.hypot(blob[0] - x, blob[1] - y) <= max(r, blob[2]) for x, y, r in fixtures)]
+    if colour_bgr is not None and frame.ndim == 3:
+        wanted = chromaticity(colour_bgr)
+        blobs = [blob for blob in blobs
+                 if np.linalg.norm(chromaticity(_centre_colour(frame, blob)) - wanted) <= MAX_CHROMATICITY_DISTANCE]
+    if not blobs:
+        return None
+    return max(blobs, key=lambda blob: (blob[3], -abs(blob[2] - expected_radius_px) if expected_radius_px else blob[2]))

@@ -21,7 +21,8 @@ stayed under 5 × 10⁻³ wherever the tracker found the ball, was 1 × 10⁻⁴
 wrong, and e's standard error already carries it.
 
 A refusal is an :class:`dropfit.errors.InputError` with one line,
-``<file>: not analysable: <limit>: <measured value> < <limit value>``.
+``<file>: not analysable: <limit>: <measured value> < <limit value>``; one for too few clean
+frames adds the options that tell the tracker about the ball (``TRACKER_HELP``).
 """
 
 from __future__ import annotations
@@ -32,7 +33,7 @@ import numpy as np
 
 from ..analysis import estimate_noise
 from ..errors import InputError, shown_path
-from .detect import QUALITY_DUPLICATE
+from .detect import QUALITY_DUPLICATE, QUALITY_LOST, QUALITY_OCCLUDED, QUALITY_PARTIAL
 from .track import CLEAN_QUALITIES
 
 #: Smallest tracked ball radius, px. Sweep: a ball drawn with radius 1 px is never found and one of
@@ -56,6 +57,14 @@ MIN_FRAME_INTERVALS_PER_FLIGHT = 15
 #: gave e₁ within 1 × 10⁻⁴; the 1000 frames/s close-up sees 12 clean frames before its contact and
 #: gives e within 5 × 10⁻⁵ (tests/test_videolog.py).
 MIN_CLEAN_FRAMES_PER_FLIGHT = 10
+#: Fewest clean frames in a recording: the two flights around a first impact.
+MIN_CLEAN_FRAMES = 2 * MIN_CLEAN_FRAMES_PER_FLIGHT
+
+
+#: What a refusal for too few clean frames suggests: the options that tell the tracker about the ball.
+TRACKER_HELP = ("see the contact sheet (dropfit overlay); help the tracker with --ball-at-px FRAME,X,Y (the ball's "
+                "centre in one frame), --roi-px X0,Y0,X1,Y1 (where it moves), --ball-colour (e.g. yellow or "
+                "#e0d040) or --ball-radius-px (samples.tsv columns ball_at_px, roi_px, ball_colour, ball_radius_px)")
 
 
 def recording_measures(table):
@@ -72,7 +81,7 @@ def recording_measures(table):
         ``ball_radius_px`` (median tracked radius of the clean frames, ``ok`` and ``blurred``, px),
         ``clean_fraction`` (clean frames over the frames, duplicates left out, from the first clean frame to the last:
         a hand holding the ball before it or an empty scene after it does not count against the
-        recording), ``centre_noise_px`` (robust noise of the clean frames' centre rows, px),
+        recording), ``clean_frames`` (their number), ``centre_noise_px`` (robust noise of the clean frames' centre rows, px),
         ``travel_px`` (range of those rows, px) and ``noise_to_travel`` (their ratio). Radius,
         noise and travel are NaN when no frame is clean.
     """
@@ -83,11 +92,11 @@ def recording_measures(table):
     span = np.flatnonzero(is_clean)
     fraction = rows.size / (span[-1] - span[0] + 1) if span.size else 0.0
     if rows.size == 0:
-        return dict(ball_radius_px=np.nan, clean_fraction=fraction, centre_noise_px=np.nan, travel_px=np.nan,
-                    noise_to_travel=np.nan)
+        return dict(ball_radius_px=np.nan, clean_fraction=fraction, clean_frames=0, centre_noise_px=np.nan,
+                    travel_px=np.nan, noise_to_travel=np.nan)
     noise = estimate_noise(rows)
     travel = float(np.ptp(rows))
-    return dict(ball_radius_px=float(np.median(clean["radius_px"])), clean_fraction=fraction,
+    return dict(ball_radius_px=float(np.median(clean["radius_px"])), clean_fraction=fraction, clean_frames=rows.size,
                 centre_noise_px=noise, travel_px=travel, noise_to_travel=noise / travel if travel > 0 else np.inf)
 
 
@@ -100,7 +109,9 @@ def recording_violations(measures):
         One phrase per broken limit, "<limit>: <measured> < <limit value>"; empty if none.
     """
     violations = []
-    if not measures["clean_fraction"] >= MIN_CLEAN_FRACTION:
+    if measures["clean_frames"] < MIN_CLEAN_FRAMES:
+        violations.append(f"frames measured cleanly: {measures['clean_frames']} < {MIN_CLEAN_FRAMES}")
+    elif not measures["clean_fraction"] >= MIN_CLEAN_FRACTION:
         violations.append(f"frames measured cleanly: {measures['clean_fraction']:.0%} < {MIN_CLEAN_FRACTION:.0%}")
     if np.isfinite(measures["ball_radius_px"]) and measures["ball_radius_px"] < MIN_BALL_RADIUS_PX:
         violations.append(f"tracked ball radius: {measures['ball_radius_px']:.2f} px < {MIN_BALL_RADIUS_PX:g} px")
@@ -117,9 +128,39 @@ def check_recording(table, source):
     source : str or pathlib.Path
         The recording, named in the message.
     """
-    violations = recording_violations(recording_measures(table))
+    measures = recording_measures(table)
+    violations = recording_violations(measures)
     if violations:
-        raise InputError(f"{shown_path(source)}: not analysable: {'; '.join(violations)}")
+        few = measures["clean_frames"] < MIN_CLEAN_FRAMES or measures["clean_fraction"] < MIN_CLEAN_FRACTION
+        cause = f" ({unclean_frames(table)}); {TRACKER_HELP}" if few else ""
+        raise InputError(f"{shown_path(source)}: not analysable: {'; '.join(violations)}{cause}")
+
+
+def unclean_frames(table):
+    """What the frames not measured cleanly were, in words: how many merged, partial, lost, and the channel.
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        The tracked table; ``attrs["contrast"]`` names the channel it was tracked in.
+
+    Returns
+    -------
+    str
+        E.g. "the ball merged with something (its shadow, a hand) in 85 % of the frames, not found in
+        5 %; tracked in chroma".
+    """
+    quality = table["quality"][table["quality"] != QUALITY_DUPLICATE]
+    total = max(len(quality), 1)
+    parts = []
+    for flag, words in ((QUALITY_OCCLUDED, "merged with something (its shadow, a hand) or partly hidden"),
+                        (QUALITY_PARTIAL, "cut by the image border"), (QUALITY_LOST, "not found")):
+        count = int((quality == flag).sum())
+        if count:
+            parts.append(f"{words} in {count / total:.0%} of the frames")
+    described = "the ball " + ", ".join(parts) if parts else "no frame measured"
+    channel = table.attrs.get("contrast")
+    return f"{described}; tracked in {channel}" if channel else described
 
 
 def flight_violation(impacts_row, frames_before, frames_after):

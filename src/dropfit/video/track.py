@@ -44,10 +44,12 @@ import pandas as pd
 
 from ..errors import InputError, shown_path
 from ..files import check_input_file
-from .background import BACKGROUND_SAMPLES, Background, background_without_ball, estimate_background, grey_uint8, to_grey
+from .background import (BACKGROUND_SAMPLES, Background, background_without_ball, estimate_background, grey_uint8,
+                         to_grey)
+from .contrast import CHROMA, GREY, Contrast, available_contrasts, contrast_of, frame_gain, hand_pixels
 from .decode import MIN_FRAMES, Progress, VideoFile, check_frame_count, check_video_file, frame_times, spread_indices
 from .detect import (QUALITY_BLURRED, QUALITY_DUPLICATE, QUALITY_LOST, QUALITY_OCCLUDED, QUALITY_OK, QUALITY_PARTIAL,
-                     find_ball, measure_ball)
+                     find_ball, find_blobs, measure_ball)
 from .opencv import cv2
 
 #: Frames measured cleanly: a lone ball whose centre is its coverage-weighted centroid.
@@ -67,6 +69,9 @@ DUPLICATE_STRIDE_PX = 16
 #: A frame identical to the previous one is not a duplicate when the ball is predicted to move less
 #: than this between them, px (a ball at rest in a noise-free video).
 STILL_BALL_STEP_PX = 0.1
+#: A ball with a hand's pixels (:func:`dropfit.video.contrast.hand_pixels`) within this of its edge is
+#: held or touched: flagged occluded, px.
+HAND_TOUCH_PX = 2.0
 #: Extra margin of the search window, px.
 WINDOW_MARGIN_PX = 6
 #: At most this many further tracking passes, each with the ball cut out of the background samples
@@ -74,6 +79,24 @@ WINDOW_MARGIN_PX = 6
 #: BACKGROUND_SETTLED_PX between passes.
 MAX_BACKGROUND_REFINEMENTS = 3
 BACKGROUND_SETTLED_PX = 0.5
+#: In ranking the contrast channels, a lone disc whose radius is within this fraction of the median
+#: of those found in the samples counts.
+RANK_RADIUS_TOLERANCE = 0.25
+#: A colour channel is ranked first only when it shows a lone disc in more samples than grey levels
+#: do by at least this many: grey has full resolution, and what the colour channels do not show (a dark
+#: hand over a bright ball) cannot flag the ball as occluded.
+RANK_GREY_MARGIN = 3
+#: Grey levels lose their margin (and get it against them) when their ball's median radius in the
+#: samples exceeds the chroma channel's by this factor: a shadow or a hand merged with the ball in grey.
+RANK_INFLATED_RADIUS = 1.1
+#: Another contrast channel is tried while fewer than this fraction of the frames in which the ball
+#: was found are usable (most of them flagged occluded: a shadow merging with the ball, say).
+ENOUGH_USABLE_FRACTION = 0.5
+#: A blob found within FIXTURE_TOLERANCE_PX of one place in at least FIXTURE_FRACTION of the
+#: background's samples is a fixture of the scene, not the ball (a ball at rest that long is in the
+#: background itself).
+FIXTURE_TOLERANCE_PX = 2.0
+FIXTURE_FRACTION = 0.7
 #: A partial frame enters the trajectory when its circle fit's centre standard error and its RMS
 #: residual are at most these, px.
 MAX_PARTIAL_CENTRE_SE_PX = 0.1
@@ -81,6 +104,26 @@ MAX_PARTIAL_FIT_RMS_PX = 0.5
 #: ... and when its radius is within this of the clean frames' (a free-radius fit to a short arc can
 #: settle on a wrong circle with small residuals), px.
 MAX_PARTIAL_RADIUS_MISMATCH_PX = 0.5
+
+
+class TrackerHints(NamedTuple):
+    """What the user says of the ball in the image, when the defaults are not enough.
+
+    Attributes
+    ----------
+    roi_px : (int, int, int, int) or None
+        Region of interest x0, y0, x1, y1, px (columns x0 ≤ x < x1, rows y0 ≤ y < y1): the ball is
+        looked for only there.
+    ball_at_px : (int, float, float) or None
+        The ball's centre x, y (px) in one frame (index from 0): measured there first.
+    ball_colour_bgr : (float, float, float) or None
+        The ball's colour, BGR levels 0–255: the contrast channel in which it stands out most from
+        the scene is used first (:func:`scene_and_contrasts`).
+    """
+
+    roi_px: tuple | None = None
+    ball_at_px: tuple | None = None
+    ball_colour_bgr: tuple | None = None
 
 
 class BallTracker:
@@ -92,11 +135,26 @@ class BallTracker:
         The static scene.
     expected_radius_px : float, optional
         Expected ball radius, px; learnt from the first ``ok`` frames when not given.
+    contrast : dropfit.video.contrast.Contrast, optional
+        The channel in which the ball is measured; grey levels by default.
+    hints : TrackerHints, optional
+        What the user says of the ball: a region of interest (the ball is looked for and measured
+        only there; its borders count as the image's) and its centre in one frame (measured there
+        first in that frame).
     """
 
-    def __init__(self, background, expected_radius_px=None):
+    def __init__(self, background, expected_radius_px=None, contrast=None, hints=None):
         self.background = background
-        self.height, self.width = background.grey.shape
+        self.contrast = contrast or contrast_of(GREY, (), background)
+        self.hints = hints or TrackerHints()
+        self._gain = 1.0
+        height, width = background.grey.shape
+        self.left, self.top, self.right, self.bottom = 0, 0, width, height  # the region searched, px
+        if self.hints.roi_px is not None:
+            x0, y0, x1, y1 = self.hints.roi_px
+            self.left, self.top = min(x0, width - 1), min(y0, height - 1)
+            self.right, self.bottom = max(min(x1, width), self.left + 1), max(min(y1, height), self.top + 1)
+        self._search_background = background.cropped(self.left, self.top, self.right, self.bottom)
         self.expected_radius_px = expected_radius_px
         self._radii = []
         self._radius_ref = None
@@ -134,21 +192,45 @@ class BallTracker:
 
     def _measure_around(self, frame, centre, half_size, motion_px=None):
         x_c, y_c = centre
-        x0 = max(int(math.floor(x_c - half_size)), 0)
-        y0 = max(int(math.floor(y_c - half_size)), 0)
-        x1 = min(int(math.ceil(x_c + half_size)) + 1, self.width)
-        y1 = min(int(math.ceil(y_c + half_size)) + 1, self.height)
+        x0 = max(int(math.floor(x_c - half_size)), self.left)
+        y0 = max(int(math.floor(y_c - half_size)), self.top)
+        x1 = min(int(math.ceil(x_c + half_size)) + 1, self.right)
+        y1 = min(int(math.ceil(y_c + half_size)) + 1, self.bottom)
         if x1 - x0 < 3 or y1 - y0 < 3:
             return None
-        grey = to_grey(frame[y0:y1, x0:x1])
-        edges = (x0 == 0, y0 == 0, x1 == self.width, y1 == self.height)
-        result = measure_ball(grey, self.background.grey[y0:y1, x0:x1], self.background.threshold_grey,
-                              (x_c - x0, y_c - y0), self.radius_ref_px, edges, motion_px)
+        colour = self.background.colour[y0:y1, x0:x1] if self.background.colour is not None else None
+        window = frame[y0:y1, x0:x1]
+        image, background = self.contrast.images(window, self.background.grey[y0:y1, x0:x1], colour, self._gain)
+        edges = (x0 == self.left, y0 == self.top, x1 == self.right, y1 == self.bottom)
+        result = measure_ball(image, background, self.contrast.threshold, (x_c - x0, y_c - y0), self.radius_ref_px,
+                              edges, motion_px)
         if result is None:
             return None
+        hand = hand_pixels(window, colour)
+        if result.quality != QUALITY_OCCLUDED and hand is not None and hand.any():
+            # a hand touching the ball hides part of it, whether or not it shows in this channel
+            rows, columns = np.nonzero(hand)
+            reach = result.radius_px + HAND_TOUCH_PX
+            if np.any((columns - result.x_px) ** 2 + (rows - result.y_px) ** 2 <= reach * reach):
+                result = replace(result, quality=QUALITY_OCCLUDED)
         return replace(result, x_px=result.x_px + x0, y_px=result.y_px + y0)
 
+    def _search(self, frame):
+        """The ball measured where a whole-frame search finds it, or None."""
+        region = frame[self.top:self.bottom, self.left:self.right]
+        fixtures = [(x - self.left, y - self.top, r) for x, y, r in self.contrast.fixtures]
+        found = find_ball(region, self._search_background, self.contrast, self.radius_ref_px, self._gain, fixtures,
+                          self.hints.ball_colour_bgr)
+        if found is None:
+            return None
+        x, y, r = found[0] + self.left, found[1] + self.top, found[2]
+        result = self._measure_around(frame, (x, y), 2.0 * max(r, self.radius_ref_px or r) + WINDOW_MARGIN_PX)
+        if result is not None and result.truncated:
+            result = self._measure_around(frame, (result.x_px, result.y_px), 4.0 * r + 2 * WINDOW_MARGIN_PX)
+        return result
+
     def _is_duplicate(self, frame, predicted, predicted_step_px):
+        """Whether the whole frame repeats the previous one while the ball was predicted to move."""
         previous = self._previous
         if previous is None or previous.shape != frame.shape:
             return False
@@ -177,7 +259,7 @@ class BallTracker:
             circle fit's centre standard error and RMS residual, px (NaN unless a fit was used).
         """
         frame = np.asarray(frame)
-        if frame.shape[:2] != (self.height, self.width):
+        if frame.shape[:2] != self.background.grey.shape:
             raise ValueError(f"frame of shape {frame.shape} does not match the background {self.background.grey.shape}")
         self._index += 1
         predicted, step, motion = self._predict()
@@ -187,20 +269,26 @@ class BallTracker:
         self._previous = frame
         if duplicate:
             return math.nan, math.nan, math.nan, QUALITY_DUPLICATE, math.nan, math.nan
+        if self.contrast.in_colour:
+            self._gain = frame_gain(frame, self.background.colour)
 
         result = None
+        start = self.hints.ball_at_px
+        if start is not None and start[0] == self._index:
+            result = self._measure_around(frame, start[1:], 2.0 * radius + WINDOW_MARGIN_PX)
+            if result is not None:
+                self._history = []
+                predicted = None
         if predicted is not None:
             result = self._measure_around(frame, predicted, half_size, motion)
             if result is not None and result.truncated:
                 result = self._measure_around(frame, (result.x_px, result.y_px), 2.0 * half_size, motion)
-        if result is None or result.truncated:
-            grey = grey_uint8(frame)
-            found = find_ball(to_grey(frame) if grey is None else grey, self.background, self.radius_ref_px)
-            if found is not None:
-                x, y, r = found
-                result = self._measure_around(frame, (x, y), 2.0 * max(r, self.radius_ref_px or r) + WINDOW_MARGIN_PX)
-                if result is not None and result.truncated:
-                    result = self._measure_around(frame, (result.x_px, result.y_px), 4.0 * r + 2 * WINDOW_MARGIN_PX)
+        if result is None or result.truncated or result.quality == QUALITY_OCCLUDED:
+            # lost, or merged with something (a hand that held the ball and moves away): a lone disc
+            # elsewhere in the frame is the ball
+            searched = self._search(frame)
+            if result is None or result.truncated or (searched is not None and searched.quality == QUALITY_OK):
+                result = searched
         if result is None:
             return math.nan, math.nan, math.nan, QUALITY_LOST, math.nan, math.nan
         self._history = (self._history + [(self._index, result.x_px, result.y_px)])[-3:]
@@ -213,14 +301,132 @@ class BallTracker:
 def _found_or_raise(table, source):
     if not table["quality"].isin([QUALITY_OK, QUALITY_PARTIAL, QUALITY_OCCLUDED]).any():
         raise InputError(f"{shown_path(source)}: the ball was never found (no round foreground blob in {len(table)} "
-                         f"frames): it must stand out from the background and move")
+                         f"frames): it must stand out from the background and move; if it does, give its centre "
+                         f"in one frame (--ball-at-px FRAME,X,Y) or its colour (--ball-colour)")
     return table
 
 
-def _run(frames, background, expected_radius_px):
-    """The tracker's rows for ``frames`` (an iterable of images) against ``background``."""
-    tracker = BallTracker(background, expected_radius_px)
+def _run(frames, background, expected_radius_px, contrast=None, hints=None):
+    """The tracker's rows for ``frames`` (an iterable of images) against ``background``, in ``contrast``."""
+    tracker = BallTracker(background, expected_radius_px, contrast, hints)
     return [tracker.update(frame) for frame in frames]
+
+
+def _sample_blobs(samples, background, contrast, expected_radius_px):
+    """Round blobs of each sample in ``contrast`` (:func:`dropfit.video.detect.find_blobs`)."""
+    return [find_blobs(sample, background, contrast, expected_radius_px,
+                       frame_gain(sample, background.colour) if contrast.in_colour else 1.0) for sample in samples]
+
+
+def _fixtures(blobs):
+    """Blobs found at one place (within ``FIXTURE_TOLERANCE_PX``) in at least ``FIXTURE_FRACTION`` of the samples."""
+    flat = [blob for found in blobs for blob in found]
+    fixtures = []
+    for x, y, radius, _ in flat:
+        if any(math.hypot(x - fx, y - fy) <= FIXTURE_TOLERANCE_PX for fx, fy, _ in fixtures):
+            continue
+        seen = sum(any(math.hypot(x - bx, y - by) <= FIXTURE_TOLERANCE_PX for bx, by, *_ in found) for found in blobs)
+        if seen >= FIXTURE_FRACTION * len(blobs):
+            fixtures.append((x, y, radius))
+    return tuple(fixtures)
+
+
+def _rank(samples, background, expected_radius_px):
+    """The contrast channels, best first (see :func:`scene_and_contrasts`), each with its fixtures."""
+    scored = {}
+    for order, name in enumerate(available_contrasts(background)):
+        contrast = contrast_of(name, samples, background)
+        blobs = _sample_blobs(samples, background, contrast, expected_radius_px)
+        fixtures = _fixtures(blobs)
+        blobs = [[blob for blob in found if not any(math.hypot(blob[0] - x, blob[1] - y) <= FIXTURE_TOLERANCE_PX
+                                                    for x, y, _ in fixtures)] for found in blobs]
+        best = [max(found, key=lambda blob: (blob[3], blob[2])) for found in blobs if found]
+        score, radius = 0, math.nan
+        if best:
+            radii = np.array([blob[2] for blob in best])
+            lone_and_consistent = (np.abs(radii / np.median(radii) - 1.0) <= RANK_RADIUS_TOLERANCE) & np.array(
+                [blob[3] for blob in best])
+            score = int(lone_and_consistent.sum())
+            radius = float(np.median(radii[lone_and_consistent])) if score else math.nan
+        scored[name] = [score, order, radius, replace(contrast, fixtures=fixtures)]
+    if GREY in scored:
+        grey = scored[GREY]
+        chroma = scored.get(CHROMA)
+        # a shadow or a hand merged with the ball makes it larger in grey than in colour
+        inflated = chroma is not None and chroma[0] >= len(samples) / 2 and grey[2] > RANK_INFLATED_RADIUS * chroma[2]
+        grey[0] += -RANK_GREY_MARGIN if inflated else RANK_GREY_MARGIN
+    return [item[3] for item in sorted(scored.values(), key=lambda item: (-item[0], item[1]))]
+
+
+def scene_and_contrasts(samples, expected_radius_px=None, ball_colour_bgr=None):
+    """The background of a clip and its contrast channels, the one in which the ball shows best first.
+
+    The background is the samples' median (:func:`dropfit.video.background.estimate_background`).
+    In each sample the whole frame is searched for round blobs
+    (:func:`dropfit.video.detect.find_blobs`); a channel scores the samples whose best blob (a lone
+    disc first, then the largest) is a lone disc with a radius within ``RANK_RADIUS_TOLERANCE`` of
+    the median of those found; grey levels get ``RANK_GREY_MARGIN`` more, or as many less when their
+    ball is larger than in chroma by ``RANK_INFLATED_RADIUS`` (the shadow merged). Ties keep the order of
+    :data:`dropfit.video.contrast.CHANNELS`. Blobs found at one place in most samples are fixtures
+    of the scene in that channel (a speck the codec renders differently from the median), not the
+    ball: each contrast carries them (``Contrast.fixtures``) and they are not counted. With the
+    ball's colour given, the channels go in the order of that colour's contrast to the scene's
+    median colour, in units of each channel's threshold.
+
+    Parameters
+    ----------
+    samples : sequence of numpy.ndarray
+        Frames spread over the clip.
+    expected_radius_px : float, optional
+        Expected ball radius, px.
+    ball_colour_bgr : (float, float, float), optional
+        The ball's colour, BGR levels 0–255.
+
+    Returns
+    -------
+    (Background, list of Contrast)
+    """
+    background = estimate_background(samples)
+    contrasts = _rank(samples, background, expected_radius_px)
+    if ball_colour_bgr is not None and background.colour is not None:
+        scene = np.median(background.colour.reshape(-1, 3), axis=0).reshape(1, 1, 3).astype(np.uint8)
+        ball = np.clip(np.rint(np.asarray(ball_colour_bgr, float)), 0, 255).reshape(1, 1, 3).astype(np.uint8)
+        scene_grey = to_grey(scene)
+
+        def standing_out(contrast):
+            return abs(float(contrast.image(ball, scene_grey, scene)[0, 0])) / contrast.threshold
+
+        contrasts.sort(key=standing_out, reverse=True)
+    return background, contrasts
+
+
+def _usable_and_found(rows):
+    """How many rows are usable, and in how many the ball was found (not lost, not a repeated frame)."""
+    table = _table(rows, np.zeros(len(rows)))
+    found = ~table["quality"].isin([QUALITY_LOST, QUALITY_DUPLICATE])
+    return int(usable_rows(table).sum()), int(found.sum())
+
+
+def _track_in_best_contrast(track, contrasts, first_rows, samples, indices, background):
+    """Rows of the contrast channel with the most usable frames, and that channel.
+
+    ``track(background, contrast)`` tracks all frames; ``first_rows`` are those of ``contrasts[0]``
+    against ``background``. Each channel's rows are tracked again with the ball cut out of the
+    background where it is in it (:func:`_track_without_ball_in_background`). The next channel is
+    tried only while fewer than ``ENOUGH_USABLE_FRACTION`` of the frames where the ball was found
+    are usable.
+    """
+    best = None
+    for contrast in contrasts:
+        rows = first_rows if best is None else track(background, contrast)
+        rows = _track_without_ball_in_background(lambda clean: track(clean, contrast), samples, indices, background,
+                                                 rows)
+        usable, found = _usable_and_found(rows)
+        if best is None or usable > best[0]:
+            best = (usable, rows, contrast)
+        if usable >= ENOUGH_USABLE_FRACTION * found:
+            break
+    return best[1], best[2]
 
 
 def _sample_balls(rows, indices):
@@ -286,7 +492,7 @@ def usable_rows(table, radius_px=None):
     return np.isin(quality, CLEAN_QUALITIES) | ((quality == QUALITY_PARTIAL) & good_fit)
 
 
-def track_frames(frames, times_s, expected_radius_px=None, *, background=None, source="frames"):
+def track_frames(frames, times_s, expected_radius_px=None, *, background=None, source="frames", hints=None):
     """Track the ball through frames already in memory.
 
     Parameters
@@ -303,12 +509,15 @@ def track_frames(frames, times_s, expected_radius_px=None, *, background=None, s
         clip, with the ball cut out when it is in it (see the module documentation).
     source : str
         Name of the recording in error messages.
+    hints : TrackerHints, optional
+        What the user says of the ball (region of interest, position in one frame, colour).
 
     Returns
     -------
     pandas.DataFrame
         One row per frame: ``frame``, ``time_s`` (s), ``x_px``, ``y_px``, ``radius_px`` (px),
-        ``quality``, ``centre_se_px`` and ``fit_rms_px`` (px; see the module documentation).
+        ``quality``, ``centre_se_px`` and ``fit_rms_px`` (px; see the module documentation);
+        ``attrs`` holds ``source``, ``noise_grey`` and ``contrast`` (the channel tracked in).
 
     Raises
     ------
@@ -317,6 +526,7 @@ def track_frames(frames, times_s, expected_radius_px=None, *, background=None, s
     """
     if not isinstance(frames, (Sequence, np.ndarray)):
         frames = list(frames)
+    hints = hints or TrackerHints()
     times_s = np.asarray(times_s, float)
     if len(frames) == 0:
         raise InputError(f"{source}: no frames")
@@ -325,14 +535,15 @@ def track_frames(frames, times_s, expected_radius_px=None, *, background=None, s
     if background is None:
         indices = spread_indices(len(frames), BACKGROUND_SAMPLES)
         samples = [frames[i] for i in indices]
-        first = estimate_background(samples)
-        rows = _track_without_ball_in_background(lambda clean: _run(frames, clean, expected_radius_px), samples,
-                                                 indices, first, _run(frames, first, expected_radius_px))
-        background = first
+        background, contrasts = scene_and_contrasts(samples, expected_radius_px, hints.ball_colour_bgr)
+        rows, contrast = _track_in_best_contrast(
+            lambda clean, contrast: _run(frames, clean, expected_radius_px, contrast, hints), contrasts,
+            _run(frames, background, expected_radius_px, contrasts[0], hints), samples, indices, background)
     else:
-        rows = _run(frames, background, expected_radius_px)
+        contrast = contrast_of(GREY, (), background)
+        rows = _run(frames, background, expected_radius_px, contrast, hints)
     table = _table(rows, times_s)
-    table.attrs.update(source=str(source), noise_grey=background.noise_grey)
+    table.attrs.update(source=str(source), noise_grey=background.noise_grey, contrast=contrast.name)
     return _found_or_raise(table, source)
 
 
@@ -345,13 +556,20 @@ CROP_RADII = 4.0
 CROP_MARGIN_PX = 2 * WINDOW_MARGIN_PX
 
 
+def _decoded_frames(path):
+    """Every frame of the video at ``path`` again, in order (a second decoding pass)."""
+    with VideoFile(path) as video:
+        for _, _, image in video.frames():
+            yield image
+
+
 class _KeptFrames:
     """The frames of the one decoding pass, kept to track the ball again with another background.
 
     Frames are kept whole while they fit in ``budget_bytes``; past it, every frame is cut down to a
     square crop about the ball's last tracked centre (``CROP_RADII`` radii plus ``CROP_MARGIN_PX``
     each way), and frames before the ball was first found to nothing. A frame tracked again is the
-    new background's grey with its crop pasted in: a ball that stays near where the first pass saw
+    new background's scene (in colour where it has one) with its crop pasted in: a ball that stays near where the first pass saw
     it (what puts it in the background) is measured from the same pixels; elsewhere there is no
     foreground. So a clip is decoded once, whatever its length, in memory bounded by the budget
     plus the crops (about 100 × 100 px each for a 10 px ball).
@@ -359,10 +577,15 @@ class _KeptFrames:
 
     def __init__(self, budget_bytes=None):
         self.budget_bytes = FRAME_MEMORY_BUDGET_BYTES if budget_bytes is None else budget_bytes
-        self._frames = []  # whole frames, then (x0, y0, grey crop) or None
+        self._frames = []  # whole frames, then (x0, y0, crop) or None
         self._whole = True
         self._bytes = 0
         self._centre = None  # last tracked (x, y, radius), px
+
+    @property
+    def whole(self):
+        """Whether the frames are kept whole (else as crops about the ball)."""
+        return self._whole
 
     def keep(self, frame, row):
         """Keep ``frame`` (BGR or grey uint8) that the first pass measured as ``row`` (x, y, radius, ...)."""
@@ -383,23 +606,26 @@ class _KeptFrames:
         x, y, radius = centre
         reach = CROP_RADII * (radius if math.isfinite(radius) else 10.0) + CROP_MARGIN_PX
         x0, y0 = max(int(x - reach), 0), max(int(y - reach), 0)
-        return x0, y0, to_grey(image[y0:int(y + reach) + 1, x0:int(x + reach) + 1])
+        return x0, y0, image[y0:int(y + reach) + 1, x0:int(x + reach) + 1].copy()
 
     def frames(self, background):
-        """The kept frames for tracking against ``background``: whole, or its grey with the crop pasted in."""
+        """The kept frames for tracking against ``background``: whole, or its scene with the crop pasted in."""
+        scene = background.image()
         for kept, _ in self._frames:
             if self._whole:
                 yield kept
                 continue
-            frame = background.grey.copy()
+            frame = scene.copy()
             if kept is not None:
                 x0, y0, crop = kept
+                if crop.ndim != frame.ndim:
+                    crop = grey_uint8(crop)
                 frame[y0:y0 + crop.shape[0], x0:x0 + crop.shape[1]] = crop
             yield frame
 
 
 def track_video(path, capture_fps=None, expected_radius_px=None, *, background_samples=BACKGROUND_SAMPLES,
-                progress_stream=None, frame_memory_bytes=None):
+                progress_stream=None, frame_memory_bytes=None, hints=None):
     """Track the ball through a video file.
 
     The file is opened once and decoded once (:class:`dropfit.video.decode.VideoFile`): the
@@ -430,13 +656,15 @@ def track_video(path, capture_fps=None, expected_radius_px=None, *, background_s
         by default.
     frame_memory_bytes : int, optional
         Memory for whole frames kept for tracking again, bytes; ``FRAME_MEMORY_BUDGET_BYTES`` by default.
+    hints : TrackerHints, optional
+        What the user says of the ball (region of interest, position in one frame, colour).
 
     Returns
     -------
     pandas.DataFrame
         As :func:`track_frames`; ``attrs`` holds ``source``, ``container_fps`` (frames/s),
         ``capture_fps``, ``time_source``, ``frame_count_header``, ``rotation_deg`` (counter-clockwise,
-        applied), ``codec`` and ``noise_grey``.
+        applied), ``codec``, ``noise_grey`` and ``contrast``.
 
     Raises
     ------
@@ -444,7 +672,8 @@ def track_video(path, capture_fps=None, expected_radius_px=None, *, background_s
         For a missing, unreadable or corrupt file, a file without frames, or a ball never found.
     """
     return track_video_and_background(path, capture_fps, expected_radius_px, background_samples=background_samples,
-                                      progress_stream=progress_stream, frame_memory_bytes=frame_memory_bytes)[0]
+                                      progress_stream=progress_stream, frame_memory_bytes=frame_memory_bytes,
+                                      hints=hints)[0]
 
 
 class TrackedVideo(NamedTuple):
@@ -455,9 +684,11 @@ class TrackedVideo(NamedTuple):
 
 
 def track_video_and_background(path, capture_fps=None, expected_radius_px=None, *,
-                               background_samples=BACKGROUND_SAMPLES, progress_stream=None, frame_memory_bytes=None):
+                               background_samples=BACKGROUND_SAMPLES, progress_stream=None, frame_memory_bytes=None,
+                               hints=None):
     """:func:`track_video`'s table and the background it tracked against, as a :class:`TrackedVideo`,
     for what else is read from the scene (a ruler, a target, the floor) without opening the file again."""
+    hints = hints or TrackerHints()
     path = check_input_file(path, "video")
     name = shown_path(path)
     if capture_fps is not None and not capture_fps > 0:
@@ -468,8 +699,9 @@ def track_video_and_background(path, capture_fps=None, expected_radius_px=None, 
         samples = video.samples(background_samples)
         if not samples:
             raise InputError(f"{name}: the frames could not be decoded consistently (corrupt video)")
-        background = estimate_background([image for _, image in samples])
-        tracker = BallTracker(background, expected_radius_px)
+        sample_images = [image for _, image in samples]
+        background, contrasts = scene_and_contrasts(sample_images, expected_radius_px, hints.ball_colour_bgr)
+        tracker = BallTracker(background, expected_radius_px, contrasts[0], hints)
         kept = _KeptFrames(frame_memory_bytes)
         stamps, rows = [], []
         for _, time_s, image in video.frames(Progress(path.name, info.frame_count, progress_stream)):
@@ -482,14 +714,20 @@ def track_video_and_background(path, capture_fps=None, expected_radius_px=None, 
                          f"test needs at least {MIN_FRAMES}, and tens in each flight")
     position = {stamp: index for index, stamp in enumerate(stamps)}
     found = [(position[stamp], image) for stamp, image in samples if stamp in position]
+    contrast = contrasts[0]
     if found:
         indices, images = zip(*found)
-        rows = _track_without_ball_in_background(lambda clean: _run(kept.frames(clean), clean, expected_radius_px),
-                                                 list(images), list(indices), background, rows)
+
+        def track(clean, contrast):
+            # crops about the first channel's ball serve that channel only; another one reads the file again
+            frames = kept.frames(clean) if kept.whole or contrast is contrasts[0] else _decoded_frames(path)
+            return _run(frames, clean, expected_radius_px, contrast, hints)
+
+        rows, contrast = _track_in_best_contrast(track, contrasts, rows, list(images), list(indices), background)
     container_fps = float(info.container_fps) if info.container_fps else math.nan
     times, how = frame_times(stamps, container_fps, capture_fps, path)
     table = _table(rows, times)
     table.attrs.update(source=str(path), container_fps=container_fps, capture_fps=capture_fps,
                        time_source=how, frame_count_header=info.frame_count, rotation_deg=info.rotation_deg,
-                       codec=info.codec, noise_grey=background.noise_grey)
+                       codec=info.codec, noise_grey=background.noise_grey, contrast=contrast.name)
     return TrackedVideo(_found_or_raise(table, path), background)

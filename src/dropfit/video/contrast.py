@@ -1,0 +1,286 @@
+"""How the ball stands out from the scene: one contrast value per pixel, in one of three channels.
+
+The tracker measures the ball in one image, the frame's contrast to the background, with the
+background at 0 (:mod:`dropfit.video.detect`). Which contrast depends on the scene, so it is
+chosen per clip (:func:`choose_contrasts`):
+
+``grey``
+    The grey level minus the background's, signed (full resolution in every codec). A ball as bright
+    as its surroundings (yellow on green) is invisible in it, and the ball's shadow on the wall
+    behind is as dark as a dark ball: a shadow that touches the ball merges with it.
+``chroma``
+    The length of the frame's colour difference to the background that is *not* along the
+    background's own colour (BGR vectors: with ``D = I/g - B``, the part of ``D`` perpendicular to
+    ``B``). A shadow or a flickering light scales the background's colour, ``I = s B``, so it
+    has no such part and vanishes; a ball of another hue than the wall (green on white, yellow on
+    green, a slightly warm white on a grey wall) keeps it. For a pixel covered by the ball to a
+    fraction ``a``, ``I = a F + (1 - a) B`` gives ``a |F_perp|``: linear in the coverage, as the
+    measurement needs. Codecs store colour at half resolution (4:2:0), so its edges are blurred
+    over about two pixels, which a coverage-weighted centroid tolerates.
+``brighter``
+    How much brighter than the background, along the background's colour (``D`` projected on
+    ``B``), negative values cut to 0: a white ball on a light wall, whose shadow is darker, not
+    brighter. Measured against the background in the shade of its neighbourhood, so that the
+    ball's rim over its own shadow counts in full.
+
+``g`` is the frame's gain against the background (:func:`frame_gain`): lighting that flickers
+with the mains or an automatic exposure that drifts scales every pixel alike, and is divided out
+before the colour channels are formed.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..numerics import robust_sigma
+from .background import NOISE_THRESHOLD_SIGMAS, to_grey
+from .opencv import cv2
+
+GREY = "grey"
+CHROMA = "chroma"
+BRIGHTER = "brighter"
+#: The channels, in the order preferred when they show the ball equally well (grey has full resolution).
+CHANNELS = (GREY, CHROMA, BRIGHTER)
+
+#: Pixels between the sparse samples of the frame gain and of the noise.
+SAMPLE_STRIDE_PX = 8
+#: Lower bound of a colour channel's foreground threshold, grey levels: the background's samples are
+#: key frames, and a codec renders the frames between them with colour errors of several levels that
+#: key frames do not show.
+MIN_COLOUR_THRESHOLD = 12.0
+#: Neighbourhood whose darkest shade is a pixel's background in ``brighter``.
+SHADE_NEIGHBOURHOOD = np.ones((3, 3), np.uint8)
+#: Background colour vectors shorter than this (grey levels) have no direction to measure along.
+MIN_BACKGROUND_LENGTH = 10.0
+
+
+@dataclass(frozen=True)
+class Contrast:
+    """One contrast channel with its noise and foreground threshold.
+
+    Attributes
+    ----------
+    name : str
+        ``grey``, ``chroma`` or ``brighter`` (see the module documentation).
+    noise : float
+        Robust standard deviation of the channel where the scene is static, grey levels.
+    threshold : float
+        Foreground threshold on the channel's absolute value, grey levels.
+    fixtures : tuple of (float, float, float)
+        Blobs that stay in one place in this channel through the clip, x, y and radius in px: not
+        the ball (see :func:`dropfit.video.track.scene_and_contrasts`).
+    """
+
+    name: str
+    noise: float
+    threshold: float
+    fixtures: tuple = ()
+
+    @property
+    def in_colour(self):
+        """Whether the channel needs the frame and the background in colour."""
+        return self.name != GREY
+
+    def image(self, frame, background_grey, background_colour, gain=1.0):
+        """The frame's contrast to the background, float32, background at 0.
+
+        Parameters
+        ----------
+        frame : numpy.ndarray
+            A window of the frame, grey or BGR uint8.
+        background_grey : numpy.ndarray
+            The background's grey levels over the same window, float32.
+        background_colour : numpy.ndarray or None
+            The background's BGR over the same window, uint8 (colour channels only).
+        gain : float
+            The frame's gain against the background (:func:`frame_gain`), dimensionless.
+
+        Returns
+        -------
+        numpy.ndarray
+            float32, the window's shape without channels, grey levels.
+        """
+        image, background = self.images(frame, background_grey, background_colour, gain)
+        return image - background
+
+    def images(self, frame, background_grey, background_colour, gain=1.0):
+        """The frame and the background in this channel, float32, for :func:`dropfit.video.detect.measure_ball`.
+
+        ``grey`` gives the grey levels of both, so that the ball's coverage of each pixel is
+        measured against that pixel's own background on a textured scene; a colour channel gives
+        its contrast image and zeros. A hand (:func:`hand_pixels`) is taken out: its pixels are
+        given the background's value. Parameters as :meth:`image`; ``background_colour`` may be
+        given for ``grey`` too (then a hand is taken out of it as well).
+        """
+        if self.name == GREY:
+            image, background = to_grey(frame), np.asarray(background_grey, np.float32)
+        elif self.name == BRIGHTER:
+            image, background = _brightness_and_shade(frame, background_colour, gain)
+        else:
+            image = chroma_contrast(frame, background_colour, gain)
+            background = np.zeros_like(image)
+        hand = hand_pixels(frame, background_colour)
+        if hand is not None and hand.any():
+            image = np.where(hand, background, image)
+        return image, background
+
+
+def _unit_background(background_colour):
+    background = background_colour.astype(np.float32)
+    length = np.sqrt((background * background).sum(axis=-1))
+    return background, background / np.maximum(length, MIN_BACKGROUND_LENGTH)[..., None]
+
+
+def _brightness_and_shade(frame, background_colour, gain):
+    """``brighter``'s image and background: the frame's brightness along the background's colour, and
+    the background's brightness times the darkest shade (frame over background, at most 1) within a
+    pixel, float32 grey levels.
+
+    A shadow touching the ball darkens the wall under the ball's rim: measured against the lit wall,
+    the rim's coverage by the ball would come out too low on the shadow's side. The rim's own
+    background is the shadowed wall next to it, so each pixel is measured against the darkest shade
+    of its 3 × 3 neighbourhood; away from shadows that shade is 1.
+    """
+    background, unit = _unit_background(background_colour)
+    length = np.sqrt((background * background).sum(axis=-1))
+    brightness = (frame.astype(np.float32) * np.float32(1.0 / gain) * unit).sum(axis=-1)
+    shade = np.clip(brightness / np.maximum(length, MIN_BACKGROUND_LENGTH), 0.0, 1.0)
+    return brightness, cv2.erode(shade, SHADE_NEIGHBOURHOOD) * length
+
+
+def chroma_contrast(frame, background_colour, gain=1.0):
+    """The ``chroma`` contrast of a BGR frame (window) to the background's colour, float32 grey levels."""
+    background, unit = _unit_background(background_colour)
+    difference = frame.astype(np.float32) * np.float32(1.0 / gain) - background
+    along = (difference * unit).sum(axis=-1)
+    across = difference - along[..., None] * unit
+    return np.sqrt((across * across).sum(axis=-1))
+
+
+#: Skin in YCrCb (8-bit OpenCV scale): red-difference Cr and blue-difference Cb ranges of human skin
+#: under common lighting (Chai and Ngan's rule), dark to light complexions.
+SKIN_CR = (135, 175)
+SKIN_CB = (80, 130)
+#: Least chroma contrast (grey levels) of a hand's pixel to the background.
+HAND_MIN_CHROMA = 20.0
+#: Opening that keeps only skin-coloured areas broader than a ball's blended rim.
+HAND_OPENING = np.ones((5, 5), np.uint8)
+
+
+def skin_mask(frame):
+    """Which pixels of a BGR uint8 frame (window) are skin-coloured: a hand, not a ball.
+
+    Balls are white, black or saturated (yellow, green, red, orange, blue): none falls in the skin
+    ranges ``SKIN_CR``, ``SKIN_CB``; a hand holding the ball does, whatever the brightness.
+
+    Returns
+    -------
+    numpy.ndarray
+        bool, the frame's shape without channels.
+    """
+    ycrcb = cv2.cvtColor(np.ascontiguousarray(frame), cv2.COLOR_BGR2YCrCb)
+    cr, cb = ycrcb[..., 1], ycrcb[..., 2]
+    return (cr >= SKIN_CR[0]) & (cr <= SKIN_CR[1]) & (cb >= SKIN_CB[0]) & (cb <= SKIN_CB[1])
+
+
+def hand_pixels(frame, background_colour):
+    """Pixels of a BGR frame (window) that are skin-coloured where the background is not, and differ from
+    it in hue by more than ``HAND_MIN_CHROMA``: a hand (areas at least 5 px across: ``HAND_OPENING``).
+
+    Returns
+    -------
+    numpy.ndarray or None
+        bool, the frame's shape without channels; None for a grey frame or without a colour background.
+    """
+    frame = np.asarray(frame)
+    if background_colour is None or frame.ndim != 3 or frame.shape[2] != 3 or frame.dtype != np.uint8:
+        return None
+    # skin-coloured where the background is not, and not the background in shade (a shadow keeps its hue)
+    hand = (skin_mask(frame) & ~skin_mask(background_colour)
+            & (chroma_contrast(frame, background_colour) > HAND_MIN_CHROMA)).astype(np.uint8)
+    # a ball's anti-aliased rim blends its colour with the wall's into skin-like tones, a ring at most
+    # two pixels wide; a hand is broader
+    return cv2.morphologyEx(hand, cv2.MORPH_OPEN, HAND_OPENING).astype(bool)
+
+
+def chromaticity(bgr):
+    """The share of each channel in a colour's sum, (b, g, r) / (b + g + r): its hue and saturation
+    without its brightness (a ball in shade keeps it)."""
+    bgr = np.asarray(bgr, float)
+    return bgr / max(float(bgr.sum()), 1.0)
+
+
+def frame_gain(frame, background_colour):
+    """The frame's brightness relative to the background, from sparse samples, dimensionless.
+
+    The median over pixels of ``(I · B) / (B · B)`` (BGR vectors): 1 for a frame lit like the
+    background, 1.05 for a flicker peak 5 % brighter; a ball or a hand covering part of the frame
+    does not move a median.
+
+    Parameters
+    ----------
+    frame : numpy.ndarray
+        BGR uint8 frame.
+    background_colour : numpy.ndarray
+        The background's BGR uint8.
+
+    Returns
+    -------
+    float
+        The gain (1.0 when the background is too dark to tell).
+    """
+    s = SAMPLE_STRIDE_PX
+    sample = frame[::s, ::s].reshape(-1, 3).astype(np.float32)
+    background = background_colour[::s, ::s].reshape(-1, 3).astype(np.float32)
+    power = (background * background).sum(axis=1)
+    lit = power > MIN_BACKGROUND_LENGTH ** 2
+    if lit.sum() < 10:
+        return 1.0
+    return float(np.median((sample[lit] * background[lit]).sum(axis=1) / power[lit]))
+
+
+def contrast_of(name, samples, background):
+    """The channel ``name`` with its noise and threshold measured on the background's samples.
+
+    Parameters
+    ----------
+    name : str
+        One of :data:`CHANNELS`.
+    samples : sequence of numpy.ndarray
+        The frames whose median is the background (BGR uint8 for the colour channels).
+    background : dropfit.video.background.Background
+        The background.
+
+    Returns
+    -------
+    Contrast
+        ``grey`` keeps the background's own noise and threshold. A colour channel's noise is the
+        robust spread of its sparse samples about 0 (``chroma`` is a length, so its values about 0
+        count both ways); its threshold is ``NOISE_THRESHOLD_SIGMAS`` of it, at least
+        ``MIN_COLOUR_THRESHOLD``.
+    """
+    if name == GREY:
+        return Contrast(GREY, background.noise_grey, background.threshold_grey)
+    s = SAMPLE_STRIDE_PX
+    colour = background.colour[::s, ::s]
+    values = []
+    channel = Contrast(name, 0.0, 0.0)
+    for sample in samples:
+        image = channel.image(sample[::s, ::s], None, colour, frame_gain(sample, background.colour))
+        values.append(image.ravel())
+    values = np.concatenate(values)
+    if name == CHROMA:
+        values = np.concatenate([values, -values])
+    noise = robust_sigma(values, centre=0.0) if values.size else 0.0
+    return Contrast(name, float(noise), max(NOISE_THRESHOLD_SIGMAS * noise, MIN_COLOUR_THRESHOLD))
+
+
+def available_contrasts(background):
+    """The channels a background allows: all with a colour background, else ``grey``."""
+    return CHANNELS if background.colour is not None else (GREY,)
+
+
+__all__ = ["BRIGHTER", "CHANNELS", "CHROMA", "GREY", "Contrast", "available_contrasts", "chroma_contrast",
+           "chromaticity", "contrast_of", "frame_gain", "hand_pixels", "skin_mask"]
