@@ -386,3 +386,23 @@ def render_drop_clip(path, truth, fps, seed=0):
     camera = Camera(160, 220, fps, None, px_per_m=CLIP_PX_PER_M, image_row_of_floor_px=CLIP_FLOOR_ROW_PX,
                     noise_sigma=2.0)
     return render_video(truth, camera, Scene(), 1.7, seed, path)
+
+
+def bouncing_ball(time_s, drop_height_m, e, g=9.81):
+    """Closed-form height (m) of a point ball released at rest from ``drop_height_m`` at t = 0 onto a
+    floor at 0, bouncing with constant ``e`` and no drag, and at rest once its bounces fade out: the
+    tests' own truth for importer fixtures (no dropfit code)."""
+    time_s = np.asarray(time_s, float)
+    height = np.zeros_like(time_s)
+    start, speed = 0.0, 0.0  # the first flight starts at the apex
+    fall = np.sqrt(2 * drop_height_m / g)
+    first = time_s < fall
+    height[first] = drop_height_m - 0.5 * g * time_s[first] ** 2
+    start, speed = fall, e * g * fall
+    while speed > 1e-4:
+        duration = 2 * speed / g
+        inside = (time_s >= start) & (time_s < start + duration)
+        tau = time_s[inside] - start
+        height[inside] = speed * tau - 0.5 * g * tau ** 2
+        start, speed = start + duration, e * speed
+    return height
