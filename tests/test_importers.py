@@ -324,3 +324,21 @@ def test_trackmate_without_tracks_or_columns_is_refused(tmp_path):
     path.write_text("LABEL,ID,TRACK_ID,POSITION_X,FRAME\nID1,1,0,1.0,0\nID2,2,0,1.5,1\n")
     with pytest.raises(InputError, match=r"spots.csv: .*POSITION_Y missing"):
         read_track(path, ImportOptions(format="trackmate", fps=FPS))
+
+
+def test_sample_sheet_and_command_line_give_the_import_options(tmp_path, capsys):
+    """The samples.tsv columns format, fps, track_id, columns and sensor_height_m reach the importer, as the
+    command-line options do: an MTrack2 table measured from the command line with --fps and --track-id."""
+    from dropfit.settings import settings_from_config
+
+    row = {"format": "mtrack2", "fps": 50.0, "track_id": 2.0, "columns": "time=a[s],y=b[m]", "sensor_height_m": 1.5}
+    _, settings = settings_from_config({}, row)
+    assert settings.import_options() == ImportOptions("mtrack2", 50.0, 2, "time=a[s],y=b[m]", 1.5)
+    text, frames, _, row_px = mtrack2_table()
+    path = tmp_path / "Results.txt"
+    path.write_text(text)
+    out = tmp_path / "trajectory.nc"
+    assert main(["measure", str(path), "--out", str(out), "--format", "mtrack2", "--fps", "50", "--track-id", "2"]) == 0
+    assert capsys.readouterr().err.startswith(f"read {shown_path(path)} as MTrack2 track 2 (given) [px, y down]")
+    assert main(["measure", str(path), "--out", str(out), "--track-id", "2.5", "--fps", "50"]) == 1
+    assert "--track-id is 2.5; give a whole number" in capsys.readouterr().err

@@ -14,7 +14,7 @@ import zipfile
 from pathlib import Path
 
 from ..errors import InputError, shown_path
-from .base import LENGTH_UNITS_M, ImportedTrack, ImportOptions, checked_track
+from .base import LENGTH_UNITS_M, ImportedTrack, ImportOptions, checked_track, drop_repeated_positions
 
 #: Every format, by the name ``--format`` and the ``format`` column of samples.tsv take.
 FORMATS = {
@@ -134,8 +134,9 @@ def _native(path):
 
 
 def _finished(path, track):
-    """The track checked (:func:`checked_track`), its lengths in a unit the trajectory path converts."""
-    track = checked_track(path, track)
+    """The track checked (:func:`checked_track`), a duplicated video frame taken out
+    (:func:`drop_repeated_positions`), its lengths in a unit the trajectory path converts."""
+    track = drop_repeated_positions(checked_track(path, track))
     if track.unit not in _TRAJECTORY_UNITS:
         metres = LENGTH_UNITS_M[track.unit]
         track = dataclasses.replace(track, y=track.y * metres, x=None if track.x is None else track.x * metres,

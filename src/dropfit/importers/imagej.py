@@ -24,7 +24,7 @@ import re
 import numpy as np
 
 from ..errors import InputError, shown, shown_path
-from .base import LENGTH_UNITS_M, TIME_UNITS_S, ImportedTrack, drop_repeated_positions, frame_times, pick_track, \
+from .base import LENGTH_UNITS_M, TIME_UNITS_S, ImportedTrack, frame_times, pick_track, \
     unique_frames
 from .table import describe, normal_unit, read_table
 
@@ -51,7 +51,7 @@ def _finish(path, format_name, frames, x, y, options, parts, unit="px"):
     parts.append(f"frames at {options.fps:g} frames/s")
     track = ImportedTrack(time, y, unit, format_name, describe(path, parts), x, options.fps,
                           notes=[note] if note else [])
-    return drop_repeated_positions(track)
+    return track
 
 
 def read_mtrack2(path, lines, options):
@@ -133,5 +133,4 @@ def read_trackmate(path, lines, options):
         return _finish(path, "trackmate", values, x, y, options, parts, unit)
     order = np.argsort(values, kind="stable")
     parts.append("time 'POSITION_T' [s]" if time_unit == "s" else f"time 'POSITION_T' [{time_unit}]")
-    return drop_repeated_positions(ImportedTrack(values[order], y[order], unit, "trackmate", describe(path, parts),
-                                                 x[order]))
+    return ImportedTrack(values[order], y[order], unit, "trackmate", describe(path, parts), x[order])

@@ -21,7 +21,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..errors import InputError, shown, shown_path
-from .base import LENGTH_UNITS_M, TIME_UNITS_S, ImportedTrack, drop_repeated_positions, frame_times, quoted, \
+from .base import LENGTH_UNITS_M, TIME_UNITS_S, ImportedTrack, frame_times, quoted, \
     unique_frames
 
 #: A line longer than this, characters, is not a table's (a height log's checks refuse it, quickly).
@@ -366,4 +366,4 @@ def track_from_table(table, format_name, options, default_time_unit=None, defaul
                           options.fps if frames is not None else None, notes=notes)
     if role == "distance" or not y_up:
         track = height_from_distance(table.path, track, options.sensor_height_m)
-    return drop_repeated_positions(track) if track.x is not None else track
+    return track

@@ -29,7 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError, shown, shown_path
-from .base import LENGTH_UNITS_M, ImportedTrack, drop_repeated_positions, pick_track
+from .base import LENGTH_UNITS_M, ImportedTrack, pick_track
 from .table import describe, track_from_table
 
 
@@ -173,6 +173,13 @@ def project_bytes(path, raw):
         raise InputError(f"{shown_path(path)}: is a damaged zip archive (a .trz?); save the project again") from None
 
 
+def read_tracker_project(path):
+    """The :class:`TrackerProject` of a ``.trk`` or ``.trz`` file."""
+    from ..files import read_bytes
+
+    return parse_project(path, project_bytes(path, read_bytes(path, "Tracker project (.trk, .trz)")))
+
+
 def read_project(path, raw, options):
     """A Tracker project → :class:`ImportedTrack` of the chosen point mass, in the world unit, y up.
 
@@ -211,7 +218,7 @@ def read_project(path, raw, options):
                               f"frames {project.frame_interval_s * 1000:g} ms apart"])
     track = ImportedTrack(time, y, unit, "tracker", mapping, x, 1.0 / project.frame_interval_s,
                           {f"tracker_{key}": value for key, value in calibration.items()})
-    return drop_repeated_positions(track)
+    return track
 
 
 def read_data_table(table, options):
