@@ -342,3 +342,18 @@ def test_sample_sheet_and_command_line_give_the_import_options(tmp_path, capsys)
     assert capsys.readouterr().err.startswith(f"read {shown_path(path)} as MTrack2 track 2 (given) [px, y down]")
     assert main(["measure", str(path), "--out", str(out), "--track-id", "2.5", "--fps", "50"]) == 1
     assert "--track-id is 2.5; give a whole number" in capsys.readouterr().err
+
+
+def test_kinovea_style_export_carries_x(tmp_path):
+    """A trajectory export as Kinovea can write it with a European locale (no layout documentation was at hand:
+    this is the generic reader's path): time in ms, X and Y in cm, semicolons and decimal commas; x comes
+    through into the trajectory."""
+    time, height = truth()
+    x = 0.05 + 0.2 * time  # m
+    body = rows(";", time * 1000, x * 100, height * 100, formats=(".0f", ".3f", ".3f")).replace(".", ",")
+    path = tmp_path / "trajectory.csv"
+    path.write_text("Time (ms);X (cm);Y (cm)\n" + body, encoding="utf-8")
+    trajectory = trajectory_from_log(path, import_options=ImportOptions(format="kinovea"))
+    assert trajectory.attrs["import_format"] == "kinovea"
+    np.testing.assert_allclose(trajectory["y"].values, height, atol=6e-5)
+    np.testing.assert_allclose(trajectory["x"].values, x, atol=6e-5)

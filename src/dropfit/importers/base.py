@@ -178,7 +178,7 @@ def frame_times(path, frames, fps, what):
     return (frames - frames[0]) / float(fps)
 
 
-def unique_frames(path, frames, *arrays):
+def unique_frames(frames, *arrays):
     """``frames`` and ``arrays`` without a frame seen already (the first kept), and a note, or None."""
     frames = np.asarray(frames, float)
     _, first = np.unique(frames, return_index=True)

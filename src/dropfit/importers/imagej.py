@@ -46,7 +46,7 @@ def is_trackmate(lines):
 def _finish(path, format_name, frames, x, y, options, parts, unit="px"):
     """The chosen track's rows → :class:`ImportedTrack`: repeated frames dropped, times from the frames."""
     order = np.argsort(frames, kind="stable")
-    (frames, x, y), note = unique_frames(path, frames[order], x[order], y[order])
+    (frames, x, y), note = unique_frames(frames[order], x[order], y[order])
     time = frame_times(path, frames, options.fps, "the table")
     parts.append(f"frames at {options.fps:g} frames/s")
     track = ImportedTrack(time, y, unit, format_name, describe(path, parts), x, options.fps,

@@ -39,7 +39,7 @@ ROLE_NAMES = {
                  "sonar distance", "ultrasonic distance"},
 }
 ROLE_WORDS = {"time": "time", "frame": "frame", "y": "height", "x": "horizontal position",
-              "distance": "distance from the sensor"}
+              "distance": "position (or distance from a sensor)"}
 #: Units as people write them, to the names of :data:`TIME_UNITS_S` and :data:`LENGTH_UNITS_M`.
 UNIT_ALIASES = {"sec": "s", "secs": "s", "second": "s", "seconds": "s", "msec": "ms", "millisecond": "ms",
                 "milliseconds": "ms", "μs": "us", "minutes": "min", "pixel": "px", "pixels": "px", "pix": "px",
@@ -70,7 +70,7 @@ class Column:
 
 @dataclass
 class Table:
-    """A text table as read: the header, the data cells (text), and what came before and after the header."""
+    """A text table as read: the header, the data cells (text), what came before the header and a row of units."""
 
     path: str
     header: list
@@ -79,7 +79,6 @@ class Table:
     decimal_comma: bool = False
     preamble: list = field(default_factory=list)
     units_row: list | None = None
-    trailer: list = field(default_factory=list)
 
     def columns(self):
         """:class:`Column` of each header field (the units row's unit where the header has none)."""
@@ -230,7 +229,7 @@ def read_table(path, lines):
     between = [split(line, separator) for line in lines[header_index + 1: start]]
     units_row = next((fields for fields in between if sum(normal_unit(f) is not None for f in fields) >= 2), None)
     rows = [split(line, separator) for line in lines[start:end]]
-    return Table(str(path), header, rows, separator, decimal_comma, lines[:header_index], units_row, lines[end:])
+    return Table(str(path), header, rows, separator, decimal_comma, lines[:header_index], units_row)
 
 
 def parse_mapping(path, text):
@@ -358,7 +357,7 @@ def track_from_table(table, format_name, options, default_time_unit=None, defaul
     notes = []
     if frames is not None:
         keep = np.isfinite(frames)
-        (frames, y, *rest), note = unique_frames(table.path, frames[keep], y[keep], *([x[keep]] if x is not None else []))
+        (frames, y, *rest), note = unique_frames(frames[keep], y[keep], *([x[keep]] if x is not None else []))
         x = rest[0] if rest else None
         notes += [note] if note else []
         time = frame_times(table.path, frames, options.fps, f"its column '{table.header[chosen['frame']]}'")
