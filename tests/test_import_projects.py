@@ -182,5 +182,9 @@ def test_real_photron_clip_is_tracked_in_every_frame():
     assert np.mean(steps) == pytest.approx(MRAW_STEP_PX, abs=0.05)
     assert np.all(np.abs(steps - MRAW_STEP_PX) < MRAW_STEP_TOL_PX + 0.1)
     assert read_track(cihx.with_suffix(".mraw")).time_s.size == 15  # the .mraw finds its .cihx
-    with pytest.raises(InputError, match=r"ball_12bit.cihx: "):
+    with pytest.raises(InputError, match=r"ball_12bit.cihx: no bounce found"):
         trajectory_from_log(cihx)
+    scale = -1e-4  # m/px, given (image rows point down)
+    trajectory = trajectory_from_log(cihx, scale_m_per_px=scale)
+    np.testing.assert_allclose(trajectory["y"].values, track.y * scale)
+    np.testing.assert_allclose(trajectory["x"].values, track.x * abs(scale))

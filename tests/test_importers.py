@@ -7,15 +7,17 @@ must give back its e.
 """
 
 import re
+from pathlib import Path
 
 import numpy as np
 import pytest
+import yaml
 
 from dropfit import analyse_recording
 from dropfit.cli import main
 from dropfit.errors import InputError, shown_path
 from dropfit.heightlog import trajectory_from_log
-from dropfit.importers import ImportOptions, read_track
+from dropfit.importers import FORMATS, ImportOptions, read_track
 
 from helpers import bouncing_ball
 
@@ -334,6 +336,8 @@ def test_sample_sheet_and_command_line_give_the_import_options(tmp_path, capsys)
     row = {"format": "mtrack2", "fps": 50.0, "track_id": 2.0, "columns": "time=a[s],y=b[m]", "sensor_height_m": 1.5}
     _, settings = settings_from_config({}, row)
     assert settings.import_options() == ImportOptions("mtrack2", 50.0, 2, "time=a[s],y=b[m]", 1.5)
+    schema = yaml.safe_load((Path(__file__).parents[1] / "workflow/schemas/samples.schema.yaml").read_text())
+    assert schema["properties"]["format"]["enum"] == list(FORMATS)
     text, frames, _, row_px = mtrack2_table()
     path = tmp_path / "Results.txt"
     path.write_text(text)

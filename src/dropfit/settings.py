@@ -20,6 +20,7 @@ from dataclasses import dataclass
 
 from .balls import BALL_KINDS, ball_kind
 from .errors import InputError, shown
+from .importers import FORMATS, ImportOptions
 from .physics import (NORMAL_GRAVITY_SE_M_S2, STANDARD_GRAVITY_M_S2, UNKNOWN_SITE_GRAVITY_SE_M_S2,
                       normal_gravity)
 from .restitution import ITF_DROP_HEIGHT_M, ITF_REBOUND_MAX_M, ITF_REBOUND_MIN_M
@@ -141,10 +142,8 @@ OPTIONS = {option.name: option for option in (
            "the floor's height in m in the log's frame", column=True),
     Option("height_reference", "the point of the ball a height log gives: its centre (default), bottom or top",
            _MEASURE, choices=("centre", "bottom", "top"), text=True, column=True),
-    Option("format", "the recording's format (default: found from its content): dropfit, csv, tracker, mtrack2, "
-           "trackmate, kinovea, vernier, pasco, phyphox, motion-detector, mraw", _MEASURE,
-           choices=("dropfit", "csv", "tracker", "mtrack2", "trackmate", "kinovea", "vernier", "pasco", "phyphox",
-                    "motion-detector", "mraw"), text=True, column=True),
+    Option("format", f"the recording's format (default: found from its content): {', '.join(FORMATS)}", _MEASURE,
+           choices=tuple(FORMATS), text=True, column=True),
     Option("fps", "frame rate in frames/s of a table that counts frames (MTrack2, TrackMate without times)",
            _MEASURE, "the frame rate in frames/s", 0.0, math.inf, False, column=True),
     Option("track_id", "which track (MTrack2 track number, TrackMate TRACK_ID, Tracker point mass) or run (Logger Pro, "
@@ -396,8 +395,6 @@ class Settings:
 
     def import_options(self):
         """The options of :mod:`dropfit.importers` (format, frame rate, track, columns, sensor height)."""
-        from .importers import ImportOptions
-
         return ImportOptions(self.format, self.fps, None if self.track_id is None else int(self.track_id),
                              self.columns, self.sensor_height_m)
 

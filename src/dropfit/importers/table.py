@@ -277,7 +277,7 @@ def choose_columns(table, columns, mapping=None, run=None):
     for role in ROLE_NAMES:
         candidates = [i for i, column in enumerate(columns) if column.role == role and (run is None or column.run == run)]
         if len(candidates) > 1:
-            if role == "x" or role == "y" and "x" in chosen:  # x1 and x, y1 and y: take the plain name
+            if role in ("x", "y"):  # x1 and x, y1 and y: take the plain name
                 plain = [i for i in candidates if columns[i].name in ("x", "y")]
                 candidates = plain[:1] or candidates
             if len(candidates) > 1:
