@@ -277,9 +277,8 @@ def choose_columns(table, columns, mapping=None, run=None):
     for role in ROLE_NAMES:
         candidates = [i for i, column in enumerate(columns) if column.role == role and (run is None or column.run == run)]
         if len(candidates) > 1:
-            if role in ("x", "y"):  # x1 and x, y1 and y: take the plain name
-                plain = [i for i in candidates if columns[i].name in ("x", "y")]
-                candidates = plain[:1] or candidates
+            if {columns[i].name for i in candidates} == {role, role + "1"}:  # x and x1: the plain name
+                candidates = [i for i in candidates if columns[i].name == role]
             if len(candidates) > 1:
                 raise InputError(f"{name}: {len(candidates)} columns could be the {ROLE_WORDS[role]} "
                                  f"({quoted(table.header[i] for i in candidates)}); name one with --columns "
