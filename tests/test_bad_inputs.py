@@ -352,6 +352,8 @@ log("tracker_project_without_point_mass", text('<?xml version="1.0" encoding="UT
     file_name="empty.trk")
 log("zip_without_tracker_project", b"PK\x03\x04" + b"\x00" * 64, file_name="project.trz")
 log("mraw_without_cihx", b"\x00" * 64, file_name="clip.mraw")
+log("cihx_not_photron", text("not the metadata of a camera\n"), file_name="clip.cihx")
+log("cihx_without_file_info", text("<cih><fileFormat>MRaw</fileFormat></cih>\n"), file_name="clip2.cihx")
 log("format_option_mismatch", lambda g: g.text, ("--format", "mtrack2", "--fps", "30"))
 bad_recording("single_row", lambda g: g.log(g.rows[:1]))
 bad_recording("two_rows", lambda g: g.log(g.rows[:2]))
