@@ -28,9 +28,9 @@ E_TOL = 0.01  # 1, e from a noise-free 50 fps track (the analysis' own bias)
 MARK_ROUNDING_M = 1e-6  # m: the marks are written to 1e-4 px, 2e-7 m at 500 px/m
 
 
-def _to_image(world_x, world_y, frame):
-    key = max(k for k in KEY_FRAMES if k <= frame)
-    x0, y0, angle_deg = KEY_FRAMES[key]
+def _to_image(world_x, world_y, frame, key_frames):
+    key = max(k for k in key_frames if k <= frame)
+    x0, y0, angle_deg = key_frames[key]
     cos, sin = math.cos(math.radians(angle_deg)), math.sin(math.radians(angle_deg))
     return (PX_PER_M * (cos * world_x - sin * world_y) + x0,
             -PX_PER_M * (sin * world_x + cos * world_y) + y0)
@@ -50,17 +50,18 @@ def _point_mass(name, frames, xs, ys):
             f'</property>')
 
 
-def tracker_project():
-    """A .trk of a bouncing ball drifting sideways (and a hand marked in a few frames), and the truth."""
+def tracker_project(key_frames=KEY_FRAMES):
+    """A .trk of a bouncing ball drifting sideways (and a hand marked in a few frames), its coordinate system's
+    ``key_frames`` (frame → origin x, origin y in px, angle in degrees), and the truth."""
     frames = np.arange(START_FRAME, START_FRAME + 80)
     time = (START_TIME_MS + (frames - START_FRAME) * DELTA_T_MS) / 1000.0
     world_y = bouncing_ball(time - time[0], DROP_M, E_TRUE) + CENTRE_M
     world_x = 0.2 + 0.3 * (time - time[0])
-    image = [_to_image(x, y, f) for x, y, f in zip(world_x, world_y, frames)]
+    image = [_to_image(x, y, f, key_frames) for x, y, f in zip(world_x, world_y, frames)]
     coords = "".join(f'<property name="[{k}]" type="object"><object class="org.opensourcephysics.media.core.'
                      f'ImageCoordSystem$FrameData">{_prop("xorigin", "double", x0)}{_prop("yorigin", "double", y0)}'
                      f'{_prop("angle", "double", a)}{_prop("xscale", "double", PX_PER_M)}'
-                     f'{_prop("yscale", "double", PX_PER_M)}</object></property>' for k, (x0, y0, a) in KEY_FRAMES.items())
+                     f'{_prop("yscale", "double", PX_PER_M)}</object></property>' for k, (x0, y0, a) in key_frames.items())
     xml = (
         '<?xml version="1.0" encoding="UTF-8"?>\n'
         '<object class="org.opensourcephysics.cabrillo.tracker.TrackerPanel">'
@@ -188,3 +189,17 @@ def test_real_photron_clip_is_tracked_in_every_frame():
     trajectory = trajectory_from_log(cihx, scale_m_per_px=scale)
     np.testing.assert_allclose(trajectory["y"].values, track.y * scale)
     np.testing.assert_allclose(trajectory["x"].values, track.x * abs(scale))
+
+
+def test_uncalibrated_tracker_project_gives_image_px(tmp_path):
+    """Without a coordinate system (Tracker's default: 1 px per unit) the marks stay image px, y down, and are
+    calibrated from gravity as a px log is: the scale comes back within 0.5 % and e within its tolerance."""
+    xml, time, _, world_y = tracker_project({0: (100.0, 450.0, 0.0)})  # a level camera that stays put
+    start, end = xml.index('<property name="coords"'), xml.index('<property name="length_unit"')
+    path = tmp_path / "uncalibrated.trk"
+    path.write_text(xml[:start] + xml[end:], encoding="utf-8")
+    track = read_track(path)
+    assert track.unit == "px" and "no calibration" in track.mapping
+    result = analyse_recording(path)
+    assert result.trajectory.attrs["scale_m_per_px"] == pytest.approx(-1 / PX_PER_M, rel=5e-3)
+    assert result.fit["restitution"]["e"]["value"] == pytest.approx(E_TRUE, abs=E_TOL)

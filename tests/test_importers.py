@@ -361,3 +361,21 @@ def test_kinovea_style_export_carries_x(tmp_path):
     assert trajectory.attrs["import_format"] == "kinovea"
     np.testing.assert_allclose(trajectory["y"].values, height, atol=6e-5)
     np.testing.assert_allclose(trajectory["x"].values, x, atol=6e-5)
+
+
+@pytest.mark.parametrize("content, options, message", [
+    ("Zeit (s);Höhe (m)\n0,00;1,0\n;0,99\n0,02;0,98\n", {}, r"a time is missing or not finite \(sample 2\); every "
+                                                           r"sample needs a time"),
+    ("Zeit (s);Höhe (m)\n0,00;\n0,01;\n0,02;\n", {}, r"the height column has no valid value"),
+    ("Zeit (s);Höhe (m)\n0,00;1,0\n0,01;inf\n0,02;0,98\n", {}, r"a height is infinite \(sample 2\)"),
+    ("Zeit (s);Höhe (m)\n0,00;1,0\n0,01;hoch\n0,02;0,98\n", {}, r"column 'Höhe \(m\)' has a value that is not a number "
+                                                             r"in data row 2 \('hoch'\)"),
+    ("frame;y (px)\n1;10\n2,5;11\n3;12\n", {"fps": 30.0}, r"a frame number is not a whole number"),
+    ("Time (s),Distance (px)\n0,10\n0.1,11\n0.2,12\n", {}, r"a distance from a sensor in px cannot be a height"),
+])
+def test_values_that_cannot_be_read_say_why(content, options, message, tmp_path):
+    """The checks every imported track gets: times, heights, frame numbers, a sensor's unit."""
+    path = tmp_path / "values.csv"
+    path.write_text(content, encoding="utf-8")
+    with pytest.raises(InputError, match=r"^" + re.escape(shown_path(path)) + ": " + message):
+        read_track(path, ImportOptions(**options))

@@ -102,7 +102,7 @@ class Table:
                 values[row_number] = float(text)
             except ValueError:
                 hint = " (decimal commas with commas between the columns: save it with semicolons between them)" \
-                    if _DECIMAL_COMMA.match(text) else ""
+                    if self.separator == "," and _DECIMAL_COMMA.match(text) else ""
                 raise InputError(f"{shown_path(self.path)}: column '{shown(what or self.header[index], 30)}' has a "
                                  f"value that is not a number in data row {row_number + 1} ('{shown(text)}'){hint}") \
                     from None
@@ -173,10 +173,12 @@ def _numeric_share(fields, decimal_comma):
 
 
 def _layout(lines, separator):
-    """(header index, data start, decimal comma, data rows, data end) of ``lines`` split by ``separator``, or None.
+    """(header index, data start, decimal comma, data rows, data end, numbers) of ``lines`` split by
+    ``separator``, or None.
 
-    The data are the longest run of rows, mostly numbers, of two fields or more; the header is the first
-    of the text rows of the same width right above them (the others: short names, units).
+    The data are the longest run of rows, mostly numbers, of two fields or more (of two equally long, the
+    one with more numbers: decimal commas or not); the header is the first of the text rows of the same
+    width right above them (the others: short names, units).
     """
     best = None
     split_lines = [split(line, separator) for line in lines]
@@ -196,8 +198,9 @@ def _layout(lines, separator):
                 if len(split_lines[above]) != width:
                     break
                 header = above
-            if header is not None and (best is None or end - start > best[3]):
-                best = (header, start, decimal_comma, end - start, end)
+            numbers = sum(_is_number(f, decimal_comma) for fields in split_lines[start:end] for f in fields)
+            if header is not None and (best is None or (end - start, numbers) > (best[3], best[5])):
+                best = (header, start, decimal_comma, end - start, end, numbers)
             start = end
     return best
 
@@ -224,7 +227,7 @@ def read_table(path, lines):
     # the separator whose table is the longest, and widest among those
     separator = max(found, key=lambda sep: (found[sep][3], len(split(lines[found[sep][0]], sep)),
                                             -list(SEPARATORS).index(sep)))
-    header_index, start, decimal_comma, _, end = found[separator]
+    header_index, start, decimal_comma, _, end, _ = found[separator]
     header = [field.strip().strip('"').strip() for field in split(lines[header_index], separator)]
     between = [split(line, separator) for line in lines[header_index + 1: start]]
     units_row = next((fields for fields in between if sum(normal_unit(f) is not None for f in fields) >= 2), None)
