@@ -76,12 +76,12 @@ def test_the_same_frame_or_time_twice_is_dropped(tmp_path):
     mtrack2.write_text(mtrack2_table(frames[twice], rows[twice], columns[twice]))
     track = read_track(mtrack2, ImportOptions(fps=FPS))
     np.testing.assert_allclose(track.time_s, time, atol=1e-12)
-    assert "1 rows of a frame already seen" in track.notes[0]
+    assert "1 row of a frame already seen" in track.notes[0]
     tracker = tmp_path / "twice_tracker.txt"
     tracker.write_text(tracker_table(time[twice], heights(time)[twice], 0.3 * time[twice]))
     track = read_track(tracker)
     np.testing.assert_allclose(track.time_s, np.round(time, 4), atol=1e-9)
-    assert "1 samples at a time already seen" in track.notes[0]
+    assert "1 sample at a time already seen" in track.notes[0]
     assert e_of(tracker) == pytest.approx(E_TRUE, abs=E_TOL)
 
 

@@ -126,7 +126,8 @@ def checked_track(path, track):
                          f"sort the table by time")
     keep = np.concatenate([[True], np.diff(time) > 0])
     if not keep.all():
-        track.notes.append(f"{int(np.count_nonzero(~keep))} samples at a time already seen (a frame exported twice) "
+        count = int(np.count_nonzero(~keep))
+        track.notes.append(f"{count} sample{'s' if count > 1 else ''} at a time already seen (a frame exported twice) "
                            f"dropped")
     fields = {"time_s": time[keep], "y": np.asarray(track.y, float)[keep]}
     if track.x is not None:
@@ -185,7 +186,8 @@ def unique_frames(frames, *arrays):
     if first.size == frames.size:
         return (frames, *arrays), None
     first = np.sort(first)
-    note = f"{frames.size - first.size} rows of a frame already seen (a frame exported twice) dropped"
+    count = frames.size - first.size
+    note = f"{count} row{'s' if count > 1 else ''} of a frame already seen (a frame exported twice) dropped"
     return (frames[first], *(np.asarray(a)[first] for a in arrays)), note
 
 
