@@ -319,37 +319,24 @@ def real_recording(folder, name):
 
 
 def tracker_point_mass(trz_path):
-    """The hand-marked positions and the calibration of a Tracker project (.trz), read from its XML.
+    """The hand-marked positions and the calibration of a Tracker project (.trz), as the product reads them
+    (:func:`dropfit.importers.tracker.read_tracker_project`).
 
     Returns
     -------
     (numpy.ndarray, dict)
-        Rows (Tracker frame index, x_px, y_px), image px with y down; and the first frame's
-        coordinate system ``{"x_origin_px", "y_origin_px", "angle_rad", "px_per_m"}`` and the
+        Rows (Tracker frame index, x_px, y_px), image px with y down, of its first point mass; and the first
+        frame's coordinate system ``{"x_origin_px", "y_origin_px", "angle_rad", "px_per_m"}`` and the
         clip's step ``delta_t_s``.
     """
-    import xml.etree.ElementTree as ElementTree
-    import zipfile
+    from dropfit.importers.tracker import read_tracker_project
 
-    with zipfile.ZipFile(trz_path) as archive:
-        name = next(n for n in archive.namelist() if n.endswith(".trk"))
-        root = ElementTree.fromstring(archive.read(name))
-
-    def value(node, name):
-        found = next(p for p in node.findall("property") if p.get("name") == name)
-        return found if found.find("object") is not None or found.get("type") in ("array", "object") else float(found.text)
-
-    marks = []
-    for node in root.iter("object"):
-        if node.get("class", "").endswith("PointMass"):
-            for item in value(node, "framedata").findall("property"):
-                frame = item.find("object")
-                marks.append((int(item.get("name").strip("[]")), value(frame, "x"), value(frame, "y")))
-    coords = next(n for n in root.iter("object") if n.get("class", "").endswith("ImageCoordSystem$FrameData"))
-    control = next(n for n in root.iter("object") if n.get("class", "").endswith("ClipControl"))
-    return np.array(marks, float), {"x_origin_px": value(coords, "xorigin"), "y_origin_px": value(coords, "yorigin"),
-                                    "angle_rad": value(coords, "angle"), "px_per_m": value(coords, "xscale"),
-                                    "delta_t_s": value(control, "delta_t") / 1000.0}
+    project = read_tracker_project(trz_path)
+    ball = project.point_masses[0]
+    x0, y0, angle, x_scale, _ = (values[0] for values in project.frame_coords(ball.frames[:1]))
+    return np.column_stack([ball.frames, ball.x_px, ball.y_px]), {
+        "x_origin_px": x0, "y_origin_px": y0, "angle_rad": angle, "px_per_m": x_scale,
+        "delta_t_s": project.frame_interval_s}
 
 
 def phone_clip(preset, directory, seed=0, downscale=0.5, **changes):
@@ -419,3 +406,23 @@ def centre_errors(table, truth):
 def rms(values):
     """Root mean square."""
     return float(np.sqrt(np.mean(np.square(values))))
+
+
+def bouncing_ball(time_s, drop_height_m, e, g=9.81):
+    """Closed-form height (m) of a point ball released at rest from ``drop_height_m`` at t = 0 onto a
+    floor at 0, bouncing with constant ``e`` and no drag, and at rest once its bounces fade out: the
+    tests' own truth for importer fixtures (no dropfit code)."""
+    time_s = np.asarray(time_s, float)
+    height = np.zeros_like(time_s)
+    start, speed = 0.0, 0.0  # the first flight starts at the apex
+    fall = np.sqrt(2 * drop_height_m / g)
+    first = time_s < fall
+    height[first] = drop_height_m - 0.5 * g * time_s[first] ** 2
+    start, speed = fall, e * g * fall
+    while speed > 1e-4:
+        duration = 2 * speed / g
+        inside = (time_s >= start) & (time_s < start + duration)
+        tau = time_s[inside] - start
+        height[inside] = speed * tau - 0.5 * g * tau ** 2
+        start, speed = start + duration, e * speed
+    return height

@@ -286,8 +286,6 @@ log("no_header", lambda g: "\n".join(g.rows) + "\n")
 log("header_only", text("time_s,y_m\n"))
 log("header_and_comments_only", text("# log\ntime_s,y_m\n# nothing\n"))
 log("unknown_columns", lambda g: g.log(g.rows, "t,height"))
-log("units_in_brackets", lambda g: g.log(g.rows, "time [s],height [m]"))
-log("uppercase_columns", lambda g: g.log(g.rows, "TIME_S,Y_M"))
 log("only_time_column", lambda g: g.log([row.split(",")[0] for row in g.rows], "time_s"))
 log("only_height_column", lambda g: g.log([row.split(",")[1] for row in g.rows], "y_m"))
 log("two_height_columns", lambda g: g.log([row + "," + row.split(",")[1] for row in g.rows], "time_s,y_m,y_mm"))
@@ -295,17 +293,11 @@ log("two_time_columns", lambda g: g.log([row.split(",")[0] + "," + row for row i
 log("duplicate_column_names", lambda g: g.log([row + ",1" for row in g.rows], "time_s,y_m,y_m"))
 log("unit_inches", lambda g: g.log(g.rows, "time_s,y_in"))
 log("unit_hours", lambda g: g.log(g.rows, "time_h,y_m"))
-log("decimal_comma_semicolons", lambda g: g.log([row.replace(",", ";").replace(".", ",") for row in g.rows],
-                                               "time_s;y_m"))
 log("decimal_comma_in_comma_csv", lambda g: g.log([row.replace(".", ",") for row in g.rows]))
 log("decimal_comma_integer_mm", lambda g: g.log([f"{row.split(',')[0].replace('.', ',')},"
                                                  f"{round(float(row.split(',')[1] or 'nan') * 1000)}"
                                                  for row in g.rows if row.split(",")[1]], "time_s,y_mm"))
 log("decimal_comma_quoted", lambda g: g.mapped(lambda t, y: f'"{t.replace(".", ",")}","{y.replace(".", ",")}"'))
-log("semicolons", lambda g: g.log([row.replace(",", ";") for row in g.rows], "time_s;y_m"))
-log("tabs", lambda g: g.log([row.replace(",", "\t") for row in g.rows], "time_s\ty_m"))
-log("spaces", lambda g: g.log([row.replace(",", " ") for row in g.rows], "time_s y_m"))
-log("vertical_bars", lambda g: g.log([row.replace(",", "|") for row in g.rows], "time_s|y_m"))
 log("trailing_comma_on_data_rows", lambda g: g.log([row + "," for row in g.rows]))
 log("leading_comma_on_data_rows", lambda g: g.log(["," + row for row in g.rows]))
 log("a_row_with_an_extra_field", lambda g: g.with_row(30, g.rows[30] + ",7"))
@@ -339,6 +331,30 @@ log("shuffled_rows", lambda g: g.log([g.rows[i] for i in np.random.default_rng(0
 log("all_times_equal", lambda g: g.mapped(lambda t, y: f"0.5,{y}"))
 log("time_beyond_float_precision", lambda g: g.mapped(lambda t, y: f"{1e300 + float(t):.6g},{y}"))
 log("negative_time_steps", lambda g: g.mapped(lambda t, y: f"{-float(t):.6f},{y}"))
+# measure: tables of other tools (dropfit.importers) that cannot be read
+log("columns_without_meaning", lambda g: g.log([row + ",1" for row in g.rows], "a,b,c"))
+log("columns_option_names_no_column", lambda g: g.log(g.rows, "a,b"), ("--columns", "time=a[s],y=q[m]"))
+log("columns_option_malformed", lambda g: g.log(g.rows, "a,b"), ("--columns", "when=a"))
+log("columns_option_unknown_unit", lambda g: g.log(g.rows, "a,b"), ("--columns", "time=a[h],y=b[m]"))
+log("two_possible_heights", lambda g: g.log([row + "," + row.split(",")[1] for row in g.rows],
+                                            "t (s),height (m),y (m)"))
+log("time_column_in_metres", lambda g: g.log(g.rows, "time (m),height (m)"))
+log("two_runs_without_choice", lambda g: g.log([row + "," + row for row in g.rows],
+                                               "Run 1: Time (s),Run 1: Position (m),Run 2: Time (s),Run 2: Position (m)"))
+log("mtrack2_without_fps", text("Tracks 1 to 1\nFrame\tX1\tY1\tFlag1\n1\t10\t20\t0\n2\t10\t22\t0\n3\t10\t26\t0\n"))
+log("mtrack2_no_positions", text("Tracks 1 to 1\nFrame\tX1\tY1\tFlag1\n1\t\t\t\n2\t\t\t\n"), ("--fps", "30"))
+log("mtrack2_missing_track", text("Tracks 1 to 1\nFrame\tX1\tY1\tFlag1\n1\t10\t20\t0\n2\t10\t22\t0\n"),
+    ("--fps", "30", "--track-id", "4"))
+log("trackmate_spots_in_no_track", text("LABEL,ID,TRACK_ID,POSITION_X,POSITION_Y,FRAME\nID1,1,None,1.0,2.0,0\n"
+                                        "ID2,2,None,1.5,2.5,1\n"), ("--fps", "30"))
+log("tracker_project_without_point_mass", text('<?xml version="1.0" encoding="UTF-8"?>\n<object class='
+                                               '"org.opensourcephysics.cabrillo.tracker.TrackerPanel">\n</object>\n'),
+    file_name="empty.trk")
+log("zip_without_tracker_project", b"PK\x03\x04" + b"\x00" * 64, file_name="project.trz")
+log("mraw_without_cihx", b"\x00" * 64, file_name="clip.mraw")
+log("cihx_not_photron", text("not the metadata of a camera\n"), file_name="clip.cihx")
+log("cihx_without_file_info", text("<cih><fileFormat>MRaw</fileFormat></cih>\n"), file_name="clip2.cihx")
+log("format_option_mismatch", lambda g: g.text, ("--format", "mtrack2", "--fps", "30"))
 bad_recording("single_row", lambda g: g.log(g.rows[:1]))
 bad_recording("two_rows", lambda g: g.log(g.rows[:2]))
 bad_recording("three_rows", lambda g: g.log(g.rows[:3]))
@@ -756,6 +772,37 @@ def test_odd_but_valid_input_is_analysed(name, content, file_name, options, good
                  ["fit", "--analysis", d / "analysis.json", "--impacts", d / "impacts.csv", "--out", d / "fit.json"]):
         assert main([str(arg) for arg in args]) == 0, capsys.readouterr().err
     assert capsys.readouterr().err == ""
+    fit = json.loads((d / "fit.json").read_text(encoding="utf-8"))
+    assert fit["restitution"]["e"]["value"] == pytest.approx(TRUE_E, abs=E_TOL)
+
+
+#: Layouts the height log refused before dropfit read other tools' tables: now read, the mapping printed.
+IMPORTED = {
+    "units_in_brackets": lambda g: g.log(g.rows, "time [s],height [m]"),
+    "uppercase_columns": lambda g: g.log(g.rows, "TIME_S,Y_M"),
+    "decimal_comma_semicolons": lambda g: g.log([row.replace(",", ";").replace(".", ",") for row in g.rows],
+                                                "time_s;y_m"),
+    "semicolons": lambda g: g.log([row.replace(",", ";") for row in g.rows], "time_s;y_m"),
+    "tabs": lambda g: g.log([row.replace(",", "\t") for row in g.rows], "time_s\ty_m"),
+    "spaces": lambda g: g.log([row.replace(",", " ") for row in g.rows], "time_s y_m"),
+    "vertical_bars": lambda g: g.log([row.replace(",", "|") for row in g.rows], "time_s|y_m"),
+}
+
+
+@pytest.mark.parametrize("name", IMPORTED)
+def test_other_layouts_are_read_and_say_how(name, good, tmp_path, capsys):
+    """Other separators, decimal commas and unit spellings are read: measure prints one line saying what it read
+    as what (the guess, for the user to check), and the analysis gives the true e."""
+    log_path = tmp_path / f"{name}.csv"
+    put(log_path, IMPORTED[name], good)
+    d = tmp_path / "out"
+    assert main(["measure", str(log_path), "--out", str(d / "trajectory.nc")]) == 0
+    err = capsys.readouterr().err
+    assert err.startswith(f"read {shown_path(log_path)} as time ") and err.count("\n") == 1, err
+    for args in (["analyse", d / "trajectory.nc", "--impacts", d / "impacts.csv", "--flights", d / "flights.csv",
+                  "--summary", d / "analysis.json"],
+                 ["fit", "--analysis", d / "analysis.json", "--impacts", d / "impacts.csv", "--out", d / "fit.json"]):
+        assert main([str(arg) for arg in args]) == 0, capsys.readouterr().err
     fit = json.loads((d / "fit.json").read_text(encoding="utf-8"))
     assert fit["restitution"]["e"]["value"] == pytest.approx(TRUE_E, abs=E_TOL)
 

@@ -11,12 +11,13 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+import xarray as xr
 import yaml
 
 from dropfit import analyse_recording
 from dropfit.settings import settings_from_config, stage_arguments
 
-from helpers import RECORDING_FILES, VIDEO_RECORDING_FILES, dropfit, write_no_bounce_log
+from helpers import RECORDING_FILES, VIDEO_RECORDING_FILES, bouncing_ball, dropfit, write_no_bounce_log
 
 REPO = Path(__file__).resolve().parents[1]
 #: Time limit of a whole workflow run (about 25 s on a laptop).
@@ -102,6 +103,28 @@ def test_dry_run_plans_every_sample(tmp_path):
         assert int(counts[rule]) == len(sheet)
     assert int(counts["summary"]) == 1
     assert int(counts["qc"]) == sheet["batch"].nunique()
+
+
+def test_sample_sheet_import_columns_reach_measure(tmp_path):
+    """A tracking table in the sample sheet with its format, fps and track_id columns: the measure job reads it
+    with them (the trajectory says how) and its log holds the line saying what was read as what."""
+    root = copy_workflow(tmp_path)
+    time = np.arange(0, 1.6, 1 / 50)
+    rows = 400 - 300 * (bouncing_ball(time, 1.0, 0.5) + 0.02)  # image rows of the ball, px (down)
+    lines = ["Tracks 1 to 2", "Frame\tX1\tY1\tFlag1\tX2\tY2\tFlag2"]
+    lines += [f"{i + 1}\t12.0\t30.0\t0\t{100 + 20 * t:.3f}\t{r:.3f}\t0" for i, (t, r) in enumerate(zip(time, rows))]
+    (root / "data" / "Results.txt").write_text("\n".join(lines) + "\n", encoding="utf-8")
+    sheet = sample_sheet(root)
+    row = {"sample_id": "mtrack2_ball", "kind": "height_log", "path": "data/Results.txt", "ball_type": "other",
+           "ball_radius_m": 0.02, "ball_mass_kg": 0.05, "format": "mtrack2", "fps": 50.0, "track_id": 2}
+    pd.concat([sheet, pd.DataFrame([row])]).to_csv(root / "config" / "samples.tsv", sep="\t", index=False)
+    result = snakemake("results/mtrack2_ball/trajectory.nc", "-c1", cwd=root, timeout=RUN_TIMEOUT_S)
+    assert result.returncode == 0, result.stderr
+    log = (root / "results" / "logs" / "measure" / "mtrack2_ball.log").read_text(encoding="utf-8")
+    assert "as MTrack2 track 2 (given) [px, y down], frames at 50 frames/s" in log
+    with xr.open_dataset(root / "results" / "mtrack2_ball" / "trajectory.nc") as trajectory:
+        assert trajectory.attrs["import_format"] == "mtrack2"
+        assert trajectory.attrs["scale_m_per_px"] == pytest.approx(-1 / 300, rel=3e-3)
 
 
 @pytest.fixture(scope="module")

@@ -98,7 +98,7 @@ def _column_unit(columns, quantity, units, path):
     raise InputError(f"{name}: expected one column {expected}, found columns {listed or 'none'}{hint}")
 
 
-def _sniff(path, raw):
+def check_not_other_file(path, raw):
     """InputError for a file that is not a text CSV at all: another format, binary data, UTF-16 text."""
     name = shown_path(path)
     suffix = Path(path).suffix.lower()
@@ -202,7 +202,7 @@ def read_height_log(path):
     """
     path = Path(path)
     raw = read_bytes(path, "height log (CSV) or video")
-    _sniff(path, raw)
+    check_not_other_file(path, raw)
     name = shown_path(path)
     text = raw.decode("utf-8", errors="replace").removeprefix("\ufeff")  # a spreadsheet's "CSV UTF-8" has a BOM
     lines = [line for line in text.splitlines() if line.strip() and not line.lstrip().startswith("#")]
@@ -430,7 +430,7 @@ HEIGHT_REFERENCES = {"centre": 0.0, "bottom": 1.0, "top": -1.0}
 
 
 def trajectory_from_log(path, scale_m_per_px=None, gravity_m_s2=STANDARD_GRAVITY_M_S2, attrs=None,
-                        height_reference="centre"):
+                        height_reference="centre", import_options=None):
     """Read a height log and convert it to the trajectory dataset (heights of the ball's centre in m, up).
 
     Parameters
@@ -448,10 +448,20 @@ def trajectory_from_log(path, scale_m_per_px=None, gravity_m_s2=STANDARD_GRAVITY
         The point of the ball the log gives: its centre, its bottom (an ultrasonic sensor looking up, a
         tracker on the ball's lowest point) or its top; the trajectory is of the centre, one radius
         above the bottom (below the top).
+    import_options : dropfit.importers.ImportOptions, optional
+        The file's format, frame rate, track, column mapping or sensor height (:mod:`dropfit.importers`
+        reads tracking tables, sensor exports and high-speed clips); default: found from the content.
     """
-    time, height, unit = read_height_log(path)
+    from .importers import read_track
+
+    imported = read_track(path, import_options)
+    return imported.with_x(_trajectory_of(path, imported, scale_m_per_px, gravity_m_s2, attrs, height_reference))
+
+
+def _trajectory_of(path, imported, scale_m_per_px, gravity_m_s2, attrs, height_reference):
+    time, height, unit = imported.time_s, imported.y, imported.unit
     extra = dict(attrs or {})
-    extra["log_unit"] = unit
+    extra.update(imported.attrs())
     if height_reference not in HEIGHT_REFERENCES:
         raise InputError(f"{shown_path(path)}: height_reference {shown(height_reference)!r} is not one of "
                          f"{', '.join(HEIGHT_REFERENCES)}")

@@ -37,7 +37,7 @@ from .videolog import VIDEO_SUFFIXES, is_video, scale_targets_of, trajectory_fro
 #: Settings that apply to measuring a recording, not to an already measured trajectory.
 MEASURE_ONLY_SETTINGS = ("scale_m_per_px", "ruler_tick_m", "scale_points_px", "scale_distance_m", "marker_size_m",
                          "board_square_m", "board_inner_corners", "capture_fps", "ball_radius_px", "roi_px",
-                         "ball_at_px")
+                         "ball_at_px", "format", "fps", "track_id", "columns", "sensor_height_m")
 
 
 def track_recording(path, settings=None, ball=None):
@@ -118,7 +118,8 @@ def measure_recording(path, ball=None, settings=None, *, sample_id=None, tracked
                                            scale_targets_of(settings), tracked)
     else:
         trajectory = trajectory_from_log(path, scale_m_per_px=scale, gravity_m_s2=gravity.value_m_s2, attrs=attrs,
-                                         height_reference=settings.height_reference)
+                                         height_reference=settings.height_reference,
+                                         import_options=settings.import_options())
     trajectory.attrs["source_sha256"] = sha256_of(path)  # after the read: it has checked the file exists
     return trajectory
 

@@ -20,6 +20,7 @@ from dataclasses import dataclass
 
 from .balls import BALL_KINDS, ball_kind
 from .errors import InputError, shown
+from .importers import FORMATS, ImportOptions
 from .physics import (NORMAL_GRAVITY_SE_M_S2, STANDARD_GRAVITY_M_S2, UNKNOWN_SITE_GRAVITY_SE_M_S2,
                       normal_gravity)
 from .restitution import ITF_DROP_HEIGHT_M, ITF_REBOUND_MAX_M, ITF_REBOUND_MIN_M
@@ -210,6 +211,19 @@ OPTIONS = {option.name: option for option in (
            "the floor's height in m in the log's frame", column=True),
     Option("height_reference", "the point of the ball a height log gives: its centre (default), bottom or top",
            _MEASURE, choices=("centre", "bottom", "top"), text=True, column=True),
+    Option("format", f"the recording's format (default: found from its content): {', '.join(FORMATS)}", _MEASURE,
+           choices=tuple(FORMATS), text=True, column=True),
+    Option("fps", "frame rate in frames/s of a table that counts frames (MTrack2, TrackMate without times)",
+           _MEASURE, "the frame rate in frames/s", 0.0, math.inf, False, column=True),
+    Option("track_id", "which track (MTrack2 track number, TrackMate TRACK_ID, Tracker point mass) or run (Logger Pro, "
+           "Capstone) to read; default: the one that moves like a dropped ball", _MEASURE,
+           "a track or run number (a whole number)", 0.0, 1e9, True, column=True),
+    Option("columns", "a table's columns, where their names do not tell: 'time=COL[s],y=COL[cm][,x=COL[cm]]' "
+           "(frame=COL for a frame count, distance=COL for a distance down from a sensor)", _MEASURE, text=True,
+           column=True),
+    Option("sensor_height_m", "height in m of a motion detector looking down: height = this − distance (default: the "
+           "direction from the bounces, zero where the ball comes to rest)", _MEASURE,
+           "the sensor's height above the floor in m", 0.0, 100.0, False, column=True),
     Option("capture_fps", "capture rate in frames/s of a slow-motion video whose file states another rate",
            _MEASURE, "the capture rate in frames/s", 0.0, math.inf, False, column=True),
     Option("gravity_m_s2", "gravity at the site in m/s² (wins over --latitude-deg); default: not known, "
@@ -340,6 +354,18 @@ class Settings:
     height_reference : {"centre", "bottom", "top"}
         The point of the ball a height log gives (an ultrasonic sensor sees the bottom; a tracker may
         follow the top); the trajectory is of the centre, one radius from either. Default ``"centre"``.
+    format : str, optional
+        The recording's format (:data:`dropfit.importers.FORMATS`). Default None: found from the content.
+    fps : float, optional
+        Frame rate in frames/s of a table that counts frames (MTrack2, TrackMate). Default None.
+    track_id : float, optional
+        The track (MTrack2, TrackMate, Tracker) or run (Logger Pro, Capstone) to read, a whole number.
+        Default None: the one that moves like a dropped ball (a single run).
+    columns : str, optional
+        A table's column mapping, ``"time=COL[s],y=COL[cm][,x=COL[cm]]"``. Default None: guessed from
+        the names.
+    sensor_height_m : float, optional
+        Height in m of a motion detector looking down (height = this − distance). Default None.
     capture_fps : float, optional
         Capture rate in frames/s of a slow-motion video whose file states another rate. Default
         None: the file's rate, checked against gravity where a scale allows.
@@ -385,6 +411,11 @@ class Settings:
     board_inner_corners: str | None = None
     floor_m: float | None = None
     height_reference: str = "centre"
+    format: str | None = None
+    fps: float | None = None
+    track_id: float | None = None
+    columns: str | None = None
+    sensor_height_m: float | None = None
     capture_fps: float | None = None
     ball_radius_px: float | None = None
     roi_px: tuple | None = None
@@ -418,6 +449,8 @@ class Settings:
                               "board_square_m", "board_inner_corners")
         if self.board_inner_corners is not None:
             self.board_corners()
+        if self.track_id is not None and self.track_id != int(self.track_id):
+            raise OptionError(f"{{0}} is {self.track_id:g}; give a whole number", "track_id")
         if self.altitude_m is not None and self.latitude_deg is None and self.gravity_m_s2 is None:
             raise OptionError("{0} is given without {1}; give the site's latitude too (g depends on both)",
                               "altitude_m", "latitude_deg")
@@ -444,6 +477,11 @@ class Settings:
             raise OptionError(f"{{0}} is '{shown(self.board_inner_corners)}'; give the inner corners as '9x6'",
                               "board_inner_corners")
         return int(parts[0]), int(parts[1])
+
+    def import_options(self):
+        """The options of :mod:`dropfit.importers` (format, frame rate, track, columns, sensor height)."""
+        return ImportOptions(self.format, self.fps, None if self.track_id is None else int(self.track_id),
+                             self.columns, self.sensor_height_m)
 
     def replace(self, **changes):
         """A copy with ``changes`` (option name → value), checked; TypeError for an unknown option."""

@@ -11,6 +11,7 @@ same files.
 from __future__ import annotations
 
 import os
+import sys
 import tempfile
 from pathlib import Path
 
@@ -65,7 +66,18 @@ def measure(log_path, out_path, ball=None, settings=None, sample_id=None, track_
     if track_path is not None:
         tracked = track_recording(log_path, settings, ball)
         write_table(track_path, tracked.table)
-    write_trajectory(out_path, measure_recording(log_path, ball, settings, sample_id=sample_id, tracked=tracked))
+    trajectory = measure_recording(log_path, ball, settings, sample_id=sample_id, tracked=tracked)
+    write_trajectory(out_path, trajectory)
+    say_how_read(trajectory)
+
+
+def say_how_read(trajectory):
+    """Print how an imported table was read (its columns, units and repairs) to standard error, one line, so
+    that the user sees what was guessed; nothing for dropfit's own height log and for videos."""
+    attrs = trajectory.attrs
+    if attrs.get("import_format", "dropfit") != "dropfit":
+        notes = f"; {attrs['import_notes']}" if attrs.get("import_notes") else ""
+        print(one_line(attrs["import_mapping"] + notes), file=sys.stderr)
 
 
 def overlay(video, sheet_path, clip_path=None, results_dir=None, ball=None, settings=None, sample_id=None,
@@ -180,6 +192,7 @@ def run(recording, out_dir, ball=None, settings=None, sample_id=None):
     video = isinstance(recording, (str, os.PathLike)) and is_video(recording)
     tracked = track_recording(recording, settings, ball) if video else None
     result = process_recording(recording, ball, settings, sample_id=sample_id, tracked=tracked)
+    say_how_read(result.trajectory)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(prefix=".dropfit-run.", dir=out) as directory:

@@ -1,0 +1,214 @@
+"""What every importer returns, and the time base of frame-indexed and video-derived tables.
+
+An importer reads one family of files (:mod:`.tracker`, :mod:`.imagej`, :mod:`.sensors`,
+:mod:`.table`, :mod:`.highspeed`) into an :class:`ImportedTrack`: times in s, the vertical coordinate
+(and the horizontal one, when the file has it) in a named length unit or in image px, and how it was
+read. :func:`dropfit.heightlog.trajectory_from_log` turns it into the trajectory.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..errors import InputError, shown, shown_path
+
+#: Seconds per time unit a table may name.
+TIME_UNITS_S = {"s": 1.0, "ms": 1e-3, "us": 1e-6, "µs": 1e-6, "min": 60.0}
+#: Metres per length unit a table may name (``px`` is calibrated later).
+LENGTH_UNITS_M = {"m": 1.0, "cm": 1e-2, "mm": 1e-3, "um": 1e-6, "in": 0.0254, "ft": 0.3048}
+
+
+@dataclass(frozen=True)
+class ImportOptions:
+    """What the user says about a file that its content cannot (command-line options of the same names).
+
+    Attributes
+    ----------
+    format : str, optional
+        The format's name (:data:`dropfit.importers.FORMATS`); default: found from the content.
+    fps : float, optional
+        Frame rate in frames/s of a frame-indexed table (MTrack2, TrackMate without times).
+    track_id : int, optional
+        Which track (MTrack2 track number, TrackMate ``TRACK_ID``) or run (Logger Pro, Capstone) to read.
+    columns : str, optional
+        The column mapping, ``"time=COL,y=COL[,x=COL]"`` (or ``frame=COL`` for ``time``), each name
+        optionally followed by its unit in brackets: ``"time=Zeit[s],y=Höhe[cm]"``.
+    sensor_height_m : float, optional
+        Height in m of a motion detector looking down: the height is this minus the distance.
+    """
+
+    format: str | None = None
+    fps: float | None = None
+    track_id: int | None = None
+    columns: str | None = None
+    sensor_height_m: float | None = None
+
+
+@dataclass
+class ImportedTrack:
+    """One ball's positions over time as read from a file.
+
+    Attributes
+    ----------
+    time_s : numpy.ndarray
+        Sample times in s, strictly increasing.
+    y : numpy.ndarray
+        The vertical coordinate in ``unit``, NaN where not measured: up for lengths; for ``px`` as the
+        file gives it (image rows point down; the calibration finds the direction).
+    unit : str
+        ``m``, ``cm``, ``mm``, ``in``, ``ft`` or ``px``.
+    source_format : str
+        The format's name (:data:`dropfit.importers.FORMATS`).
+    mapping : str
+        One line saying what was read as what (``read data.csv as time 'Zeit (s)' [s], height …``).
+    x : numpy.ndarray, optional
+        The horizontal coordinate in ``unit`` (NaN where not measured), or None.
+    frame_rate_hz : float, optional
+        The frame rate of a video-derived table, frames/s.
+    calibration : dict
+        The file's own calibration, applied already (Tracker: ``px_per_m``, origin, angle), for the
+        trajectory's attributes.
+    notes : list of str
+        What was repaired (duplicated frames removed, …), for the trajectory's attributes.
+    """
+
+    time_s: np.ndarray
+    y: np.ndarray
+    unit: str
+    source_format: str
+    mapping: str
+    x: np.ndarray | None = None
+    frame_rate_hz: float | None = None
+    calibration: dict = field(default_factory=dict)
+    notes: list = field(default_factory=list)
+
+    def attrs(self):
+        """The trajectory attributes that say how the file was read."""
+        attrs = {"log_unit": self.unit, "import_format": self.source_format, "import_mapping": self.mapping}
+        if self.frame_rate_hz:
+            attrs["import_frame_rate_hz"] = float(self.frame_rate_hz)
+        if self.notes:
+            attrs["import_notes"] = "; ".join(self.notes)
+        attrs.update({f"import_{key}": value for key, value in self.calibration.items()})
+        return attrs
+
+    def with_x(self, trajectory):
+        """``trajectory`` with this track's horizontal coordinate as ``x`` (m), scaled as its heights were."""
+        if self.x is None or "x" in trajectory:
+            return trajectory
+        if self.unit == "px":
+            metres = abs(float(trajectory.attrs["scale_m_per_px"]))
+        else:
+            metres = LENGTH_UNITS_M[self.unit]
+        trajectory["x"] = ("time", self.x * metres, {"units": "m", "long_name": "horizontal position of the ball centre"})
+        return trajectory
+
+
+def checked_track(path, track):
+    """``track`` after checking what every format must give: finite, increasing times and some position.
+
+    Samples at a time already seen are dropped (a frame exported twice); a note says how many.
+    """
+    name = shown_path(path)
+    time = np.asarray(track.time_s, float)
+    if time.size == 0:
+        raise InputError(f"{name}: no samples were read ({track.mapping}); check the file, or name the columns "
+                         f"with --columns time=…,y=…")
+    if not np.all(np.isfinite(time)):
+        raise InputError(f"{name}: a time is missing or not finite (sample {int(np.flatnonzero(~np.isfinite(time))[0]) + 1}); "
+                         f"every sample needs a time")
+    if np.any(np.diff(time) < 0):
+        back = int(np.flatnonzero(np.diff(time) < 0)[0])
+        raise InputError(f"{name}: time goes back at sample {back + 2} ({time[back]:g} s then {time[back + 1]:g} s); "
+                         f"sort the table by time")
+    keep = np.concatenate([[True], np.diff(time) > 0])
+    if not keep.all():
+        count = int(np.count_nonzero(~keep))
+        track.notes.append(f"{count} sample{'s' if count > 1 else ''} at a time already seen (a frame exported twice) "
+                           f"dropped")
+    fields = {"time_s": time[keep], "y": np.asarray(track.y, float)[keep]}
+    if track.x is not None:
+        fields["x"] = np.asarray(track.x, float)[keep]
+    track = dataclasses.replace(track, **fields)
+    if not np.any(np.isfinite(track.y)):
+        raise InputError(f"{name}: the height column has no valid value ({track.mapping}); name the right one with "
+                         f"--columns time=…,y=…")
+    if np.any(np.isinf(track.y)):
+        raise InputError(f"{name}: a height is infinite (sample {int(np.flatnonzero(np.isinf(track.y))[0]) + 1})")
+    return track
+
+
+def drop_repeated_positions(track):
+    """``track`` with a video frame shown twice taken out: a position (x and y) repeated exactly in the next
+    sample, where the ball moves before and after, is a duplicated frame, not a ball standing still for one
+    frame; its time is not when the ball was there, so the repeat becomes a dropout (NaN).
+
+    Runs of three or more equal positions (a ball at rest) are kept.
+    """
+    if track.x is None or track.y.size < 3:
+        return track
+    same = (track.x[1:] == track.x[:-1]) & (track.y[1:] == track.y[:-1]) & np.isfinite(track.y[1:])
+    before = np.concatenate([[False], same[:-1]])
+    after = np.concatenate([same[1:], [False]])
+    repeat = np.flatnonzero(same & ~before & ~after) + 1
+    if repeat.size == 0:
+        return track
+    y, x = track.y.copy(), track.x.copy()
+    y[repeat], x[repeat] = np.nan, np.nan
+    track.notes.append(f"{repeat.size} repeated position{'s' if repeat.size > 1 else ''} (a duplicated video frame) "
+                       f"set as dropout{'s' if repeat.size > 1 else ''}")
+    return dataclasses.replace(track, y=y, x=x)
+
+
+def frame_times(path, frames, fps, what):
+    """Times in s of frame numbers ``frames`` at ``fps`` frames/s, counted from the first frame.
+
+    A frame missing from the table (dropped, or the ball not found) leaves a gap of its own length: the
+    times come from the frame numbers, not from the row count. The same frame twice is an error the
+    caller has removed already.
+    """
+    if fps is None:
+        raise InputError(f"{shown_path(path)}: {what} counts frames but gives no times; give the frame rate with --fps "
+                         f"(frames/s), or an fps column in samples.tsv")
+    frames = np.asarray(frames, float)
+    if not np.all(np.isfinite(frames)) or np.any(frames != np.round(frames)):
+        raise InputError(f"{shown_path(path)}: a frame number is not a whole number; check the frame column")
+    return (frames - frames[0]) / float(fps)
+
+
+def unique_frames(frames, *arrays):
+    """``frames`` and ``arrays`` without a frame seen already (the first kept), and a note, or None."""
+    frames = np.asarray(frames, float)
+    _, first = np.unique(frames, return_index=True)
+    if first.size == frames.size:
+        return (frames, *arrays), None
+    first = np.sort(first)
+    count = frames.size - first.size
+    note = f"{count} row{'s' if count > 1 else ''} of a frame already seen (a frame exported twice) dropped"
+    return (frames[first], *(np.asarray(a)[first] for a in arrays)), note
+
+
+def quoted(names, limit=6):
+    """Column names as a message lists them: ``'a', 'b', 'c'``."""
+    names = list(names)
+    text = ", ".join(f"'{shown(name, 30)}'" for name in names[:limit])
+    return text + (", …" if len(names) > limit else "")
+
+
+def pick_track(path, tracks, track_id, what):
+    """The id of the track to read among ``tracks`` (id → (frames, x, y)): ``track_id`` when given, else the
+    one that moves like a dropped ball: among the tracks with at least half the most frames, the one with
+    the largest vertical range."""
+    if track_id is not None:
+        if track_id not in tracks:
+            raise InputError(f"{shown_path(path)}: there is no {what} {track_id}; the {what}s are "
+                             f"{', '.join(str(key) for key in tracks)} (--track-id N)")
+        return track_id
+    counts = {key: int(np.count_nonzero(np.isfinite(np.asarray(y, float)))) for key, (_, _, y) in tracks.items()}
+    longest = max(counts.values())
+    ranges = {key: float(np.nanmax(y) - np.nanmin(y)) for key, (_, _, y) in tracks.items()
+              if counts[key] >= 0.5 * longest and counts[key] > 0}
+    return max(ranges, key=ranges.get)

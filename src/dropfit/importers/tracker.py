@@ -1,0 +1,229 @@
+"""Tracker (Open Source Physics): projects (``.trk`` XML, ``.trz`` zip) and exported data tables.
+
+A ``.trk`` file is the XML of Tracker's ``XMLControl``: ``<object class="…">`` elements holding
+``<property name=… type=…>``. dropfit reads from it
+
+- each point mass (class ``…PointMass``): its ``name`` and its ``framedata`` array, whose item
+  ``[n]`` holds the image position ``x``, ``y`` (px, y down) marked in video frame n;
+- the coordinate system (``…ImageCoordSystem``): per key frame the image position of the world
+  origin (``xorigin``, ``yorigin``, px), the angle of the world x axis counter-clockwise from the
+  image x axis (``angle``, degrees) and the scale (``xscale``, ``yscale``, px per world unit); a frame
+  without an entry keeps the last key frame's values. The world y axis points up;
+- the clip's timing: the video clip's ``startframe`` and ``starttime`` (ms) and the clip control's
+  ``delta_t`` (ms per frame): frame n is at ``starttime + (n − startframe) · delta_t``;
+- the panel's ``length_unit`` (the world unit, m by default).
+
+A ``.trz`` project is a zip holding the ``.trk`` (and the video). Tracker's exported data tables are
+text: a first line naming the track, then ``t x y`` (tab separated), in s and the world unit (m
+unless the header names another).
+"""
+
+from __future__ import annotations
+
+import io
+import math
+import xml.etree.ElementTree as ElementTree
+import zipfile
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import InputError, shown, shown_path
+from .base import LENGTH_UNITS_M, ImportedTrack, pick_track
+from .table import describe, track_from_table
+
+
+@dataclass
+class PointMass:
+    """One point mass of a Tracker project: its name and its marks (video frame, image px, y down)."""
+
+    name: str
+    frames: np.ndarray
+    x_px: np.ndarray
+    y_px: np.ndarray
+
+
+@dataclass
+class TrackerProject:
+    """What dropfit reads from a Tracker project.
+
+    Attributes
+    ----------
+    point_masses : list of PointMass
+    coords : dict
+        Frame number → (x origin px, y origin px, angle rad, x scale px/unit, y scale px/unit), key frames.
+    start_frame : int
+        The clip's first video frame.
+    start_time_s : float
+        The time of the clip's first frame, s.
+    frame_interval_s : float or None
+        Time between video frames, s (``delta_t``).
+    length_unit : str
+        The world unit of the coordinate system.
+    """
+
+    point_masses: list
+    coords: dict
+    start_frame: int
+    start_time_s: float
+    frame_interval_s: float | None
+    length_unit: str
+
+    def frame_coords(self, frames):
+        """The coordinate system of each frame: arrays (x origin, y origin, angle rad, x scale, y scale)."""
+        keys = sorted(self.coords)
+        if not keys:
+            return tuple(np.full(len(frames), value) for value in (0.0, 0.0, 0.0, 1.0, 1.0))
+        rows = [self.coords[keys[max(0, int(np.searchsorted(keys, frame, side="right")) - 1)]] for frame in frames]
+        return tuple(np.array(column, float) for column in zip(*rows))
+
+    def world(self, point_mass):
+        """(x, y) of a point mass in the world unit, y up: Tracker's image-to-world transform of each frame."""
+        x0, y0, angle, x_scale, y_scale = self.frame_coords(point_mass.frames)
+        u = (point_mass.x_px - x0) / x_scale
+        v = -(point_mass.y_px - y0) / y_scale
+        return np.cos(angle) * u + np.sin(angle) * v, -np.sin(angle) * u + np.cos(angle) * v
+
+    def times_s(self, frames):
+        """Times in s of video frames."""
+        return self.start_time_s + (np.asarray(frames, float) - self.start_frame) * self.frame_interval_s
+
+
+def _properties(node):
+    return {prop.get("name"): prop for prop in node.findall("property")}
+
+
+def _number(prop, default=None):
+    if prop is None or prop.text is None:
+        return default
+    try:
+        return float(prop.text)
+    except ValueError:
+        return default
+
+
+def _object(prop):
+    return prop.find("object") if prop is not None else None
+
+
+def _array_items(prop):
+    """(index, object) of an XMLControl array property's items ``[n]``."""
+    items = []
+    for item in prop.findall("property") if prop is not None else []:
+        name = item.get("name", "")
+        if name.startswith("[") and name.endswith("]") and name[1:-1].isdigit() and _object(item) is not None:
+            items.append((int(name[1:-1]), _object(item)))
+    return items
+
+
+def parse_project(path, xml_bytes):
+    """A :class:`TrackerProject` from the bytes of a ``.trk`` file; InputError if it is not one."""
+    name = shown_path(path)
+    try:
+        root = ElementTree.fromstring(xml_bytes)
+    except ElementTree.ParseError as error:
+        raise InputError(f"{name}: is not a readable Tracker project (XML error: {shown(error)}); save it again in "
+                         f"Tracker") from None
+    if not root.get("class", "").endswith("TrackerPanel"):
+        raise InputError(f"{name}: is XML but not a Tracker project (no TrackerPanel); give a .trk or .trz file")
+    masses = []
+    for node in root.iter("object"):
+        if not node.get("class", "").endswith(".PointMass"):
+            continue
+        props = _properties(node)
+        marks = [(frame, _number(_properties(data).get("x")), _number(_properties(data).get("y")))
+                 for frame, data in _array_items(props.get("framedata"))]
+        marks = [mark for mark in marks if mark[1] is not None and mark[2] is not None]
+        label = props["name"].text if "name" in props and props["name"].text else f"point mass {len(masses) + 1}"
+        frames, x, y = (np.array(column, float) for column in zip(*marks)) if marks else (np.array([]),) * 3
+        masses.append(PointMass(label, frames, x, y))
+    coords = {}
+    system = next((n for n in root.iter("object") if n.get("class", "").endswith(".ImageCoordSystem")), None)
+    if system is not None:
+        for frame, data in _array_items(_properties(system).get("framedata")):
+            values = _properties(data)
+            coords[frame] = (_number(values.get("xorigin"), 0.0), _number(values.get("yorigin"), 0.0),
+                             math.radians(_number(values.get("angle"), 0.0)), _number(values.get("xscale"), 1.0),
+                             _number(values.get("yscale"), 1.0))
+    clip = next((n for n in root.iter("object") if n.get("class", "").endswith(".VideoClip")), None)
+    clip_props = _properties(clip) if clip is not None else {}
+    control = next((n for n in root.iter("object") if n.get("class", "").endswith("ClipControl")), None)
+    delta_t_ms = _number(_properties(control).get("delta_t")) if control is not None else None
+    start_time_ms = _number(clip_props.get("starttime"), 0.0)
+    root_props = _properties(root)
+    unit = root_props["length_unit"].text.strip() if root_props.get("length_unit") is not None \
+        and root_props["length_unit"].text else "m"
+    return TrackerProject(masses, coords, int(_number(clip_props.get("startframe"), 0.0)),
+                          (start_time_ms if math.isfinite(start_time_ms) else 0.0) / 1000.0,
+                          delta_t_ms / 1000.0 if delta_t_ms and delta_t_ms > 0 else None, unit)
+
+
+def project_bytes(path, raw):
+    """The ``.trk`` XML of a ``.trk`` file or of a ``.trz`` project (the first ``.trk`` in the zip)."""
+    if not raw.startswith(b"PK"):
+        return raw
+    try:
+        with zipfile.ZipFile(io.BytesIO(raw)) as archive:
+            names = [n for n in archive.namelist() if n.lower().endswith(".trk")]
+            if not names:
+                raise InputError(f"{shown_path(path)}: is a zip archive without a Tracker project (.trk) in it; give "
+                                 f"the .trz saved by Tracker, or export the data as CSV")
+            return archive.read(names[0])
+    except zipfile.BadZipFile:
+        raise InputError(f"{shown_path(path)}: is a damaged zip archive (a .trz?); save the project again") from None
+
+
+def read_tracker_project(path):
+    """The :class:`TrackerProject` of a ``.trk`` or ``.trz`` file."""
+    from ..files import read_bytes
+
+    return parse_project(path, project_bytes(path, read_bytes(path, "Tracker project (.trk, .trz)")))
+
+
+def read_project(path, raw, options):
+    """A Tracker project → :class:`ImportedTrack` of the chosen point mass, in the world unit, y up.
+
+    Without a calibration (scale 1 px per unit, the default) the positions stay in image px.
+    """
+    name = shown_path(path)
+    project = parse_project(path, project_bytes(path, raw))
+    masses = {index + 1: mass for index, mass in enumerate(project.point_masses) if mass.frames.size}
+    if not masses:
+        raise InputError(f"{name}: the Tracker project has no point mass with marked positions; mark the ball with a "
+                         f"point mass in Tracker")
+    number = pick_track(path, {k: (m.frames, m.x_px, m.y_px) for k, m in masses.items()}, options.track_id,
+                        "point mass")
+    mass = masses[number]
+    if project.frame_interval_s is None:
+        if not options.fps:
+            raise InputError(f"{name}: the Tracker project gives no frame timing (delta_t); give the frame rate with "
+                             f"--fps")
+        project.frame_interval_s = 1.0 / options.fps
+    time = project.times_s(mass.frames)
+    _, _, angle, x_scale, y_scale = project.frame_coords(mass.frames)
+    calibrated = not (np.all(x_scale == 1.0) and np.all(y_scale == 1.0))
+    unit = project.length_unit if project.length_unit in LENGTH_UNITS_M else None
+    if calibrated and unit is None:
+        raise InputError(f"{name}: the Tracker project's length unit '{shown(project.length_unit)}' is not one dropfit "
+                         f"reads (m, cm, mm, in, ft); set it to m in Tracker")
+    if calibrated:
+        x, y = project.world(mass)
+        calibration = {"px_per_unit": float(np.median(y_scale)), "angle_deg": float(np.degrees(np.median(angle))),
+                       "origin_px": f"{project.frame_coords(mass.frames[:1])[0][0]:.3f},"
+                                    f"{project.frame_coords(mass.frames[:1])[1][0]:.3f}"}
+        what = f"Tracker's calibration ({np.median(y_scale):.6g} px/{unit}, axes at {np.degrees(np.median(angle)):.3g}°)"
+    else:
+        x, y, unit, calibration, what = mass.x_px, mass.y_px, "px", {}, "image px (no calibration in the project)"
+    mapping = describe(path, [f"point mass '{mass.name}' ({mass.frames.size} marks)", what,
+                              f"frames {project.frame_interval_s * 1000:g} ms apart"])
+    track = ImportedTrack(time, y, unit, "tracker", mapping, x, 1.0 / project.frame_interval_s,
+                          {f"tracker_{key}": value for key, value in calibration.items()})
+    return track
+
+
+def read_data_table(table, options):
+    """Tracker's exported data (a track name line, then ``t x y``): time in s and lengths in m unless named."""
+    track = track_from_table(table, "tracker", options, default_time_unit="s", default_length_unit="m")
+    if table.preamble:
+        track.mapping += f" (track '{shown(table.preamble[-1].strip(), 30)}')"
+    return track

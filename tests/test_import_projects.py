@@ -1,0 +1,205 @@
+"""Project and camera files: Tracker's .trk/.trz (synthetic and the real ball toss) and Photron MRAW (real).
+
+The synthetic Tracker project is written here from Tracker's XML as its ``ImageCoordSystem`` documents
+it: the world-to-image transform rotates about the world origin by the angle of the world x axis
+(counter-clockwise from the image x axis, saved in degrees), scales to px and translates to the origin;
+the world y axis points up, image rows down.
+"""
+
+import math
+import zipfile
+
+import numpy as np
+import pytest
+
+from dropfit import analyse_recording
+from dropfit.errors import InputError
+from dropfit.heightlog import trajectory_from_log
+from dropfit.importers import ImportOptions, read_track
+
+from helpers import bouncing_ball, real_recording
+
+START_FRAME, START_TIME_MS, DELTA_T_MS = 3, 100.0, 20.0  # the clip: first frame, its time (ms), ms per frame
+PX_PER_M = 500.0  # px/m, the calibration
+#: Key frames of the coordinate system: frame → (origin x px, origin y px, angle deg); the camera was bumped.
+KEY_FRAMES = {0: (100.0, 450.0, 10.0), 40: (104.0, 452.5, 10.0)}
+DROP_M, E_TRUE, CENTRE_M = 0.5, 0.6, 0.02  # m, 1, m
+E_TOL = 0.01  # 1, e from a noise-free 50 fps track (the analysis' own bias)
+MARK_ROUNDING_M = 1e-6  # m: the marks are written to 1e-4 px, 2e-7 m at 500 px/m
+
+
+def _to_image(world_x, world_y, frame, key_frames):
+    key = max(k for k in key_frames if k <= frame)
+    x0, y0, angle_deg = key_frames[key]
+    cos, sin = math.cos(math.radians(angle_deg)), math.sin(math.radians(angle_deg))
+    return (PX_PER_M * (cos * world_x - sin * world_y) + x0,
+            -PX_PER_M * (sin * world_x + cos * world_y) + y0)
+
+
+def _prop(name, kind, value):
+    return f'<property name="{name}" type="{kind}">{value}</property>'
+
+
+def _point_mass(name, frames, xs, ys):
+    items = "".join(f'<property name="[{f}]" type="object"><object class="org.opensourcephysics.cabrillo.tracker.'
+                    f'PointMass$FrameData">{_prop("x", "double", f"{x:.4f}")}{_prop("y", "double", f"{y:.4f}")}'
+                    f'</object></property>' for f, x, y in zip(frames, xs, ys))
+    return (f'<property name="item" type="object"><object class="org.opensourcephysics.cabrillo.tracker.PointMass">'
+            f'{_prop("mass", "double", 0.2)}{_prop("name", "string", name)}<property name="framedata" type="array" '
+            f'class="[Lorg.opensourcephysics.cabrillo.tracker.PointMass$FrameData;">{items}</property></object>'
+            f'</property>')
+
+
+def tracker_project(key_frames=KEY_FRAMES):
+    """A .trk of a bouncing ball drifting sideways (and a hand marked in a few frames), its coordinate system's
+    ``key_frames`` (frame → origin x, origin y in px, angle in degrees), and the truth."""
+    frames = np.arange(START_FRAME, START_FRAME + 80)
+    time = (START_TIME_MS + (frames - START_FRAME) * DELTA_T_MS) / 1000.0
+    world_y = bouncing_ball(time - time[0], DROP_M, E_TRUE) + CENTRE_M
+    world_x = 0.2 + 0.3 * (time - time[0])
+    image = [_to_image(x, y, f, key_frames) for x, y, f in zip(world_x, world_y, frames)]
+    coords = "".join(f'<property name="[{k}]" type="object"><object class="org.opensourcephysics.media.core.'
+                     f'ImageCoordSystem$FrameData">{_prop("xorigin", "double", x0)}{_prop("yorigin", "double", y0)}'
+                     f'{_prop("angle", "double", a)}{_prop("xscale", "double", PX_PER_M)}'
+                     f'{_prop("yscale", "double", PX_PER_M)}</object></property>' for k, (x0, y0, a) in key_frames.items())
+    xml = (
+        '<?xml version="1.0" encoding="UTF-8"?>\n'
+        '<object class="org.opensourcephysics.cabrillo.tracker.TrackerPanel">'
+        '<property name="videoclip" type="object"><object class="org.opensourcephysics.media.core.VideoClip">'
+        f'{_prop("startframe", "int", START_FRAME)}{_prop("stepsize", "int", 1)}'
+        f'{_prop("starttime", "double", START_TIME_MS)}</object></property>'
+        '<property name="clipcontrol" type="object"><object class="org.opensourcephysics.media.core.'
+        f'StepperClipControl">{_prop("delta_t", "double", DELTA_T_MS)}</object></property>'
+        '<property name="coords" type="object"><object class="org.opensourcephysics.media.core.ImageCoordSystem">'
+        f'<property name="framedata" type="array" class="[Lorg.opensourcephysics.media.core.ImageCoordSystem'
+        f'$FrameData;">{coords}</property></object></property>'
+        f'{_prop("length_unit", "string", "m")}'
+        '<property name="tracks" type="collection" class="java.util.ArrayList">'
+        + _point_mass("hand", frames[:5], [300.0] * 5, [200.0, 201.0, 202.5, 203.0, 205.0])
+        + _point_mass("ball", frames, *zip(*image))
+        + '</property></object>\n')
+    return xml, time, world_x, world_y
+
+
+def test_tracker_project_is_read_with_its_calibration_and_timing(tmp_path):
+    """Key-framed origin, the angle in degrees, the scale, the clip's start frame, start time and delta_t: the
+    world positions and times are the truth, x carried; the ball is picked over the hand; e comes back."""
+    xml, time, world_x, world_y = tracker_project()
+    path = tmp_path / "drop.trk"
+    path.write_text(xml, encoding="utf-8")
+    track = read_track(path)
+    assert track.source_format == "tracker" and "'ball'" in track.mapping and track.unit == "m"
+    np.testing.assert_allclose(track.time_s, time, atol=1e-12)
+    np.testing.assert_allclose(track.y, world_y, atol=MARK_ROUNDING_M)
+    np.testing.assert_allclose(track.x, world_x, atol=MARK_ROUNDING_M)
+    hand = read_track(path, ImportOptions(track_id=1))
+    assert hand.time_s.size == 5
+    result = analyse_recording(path)
+    assert result.fit["restitution"]["e"]["value"] == pytest.approx(E_TRUE, abs=E_TOL)
+    np.testing.assert_allclose(result.trajectory["x"].values, world_x, atol=MARK_ROUNDING_M)
+
+
+def test_trz_project_is_the_zipped_trk(tmp_path):
+    xml, time, _, world_y = tracker_project()
+    path = tmp_path / "drop.trz"
+    with zipfile.ZipFile(path, "w") as archive:
+        archive.writestr("drop_thumbnail.png", b"\x89PNG\r\n\x1a\n")
+        archive.writestr("drop.trk", xml)
+    np.testing.assert_allclose(read_track(path).y, world_y, atol=MARK_ROUNDING_M)
+    with zipfile.ZipFile(tmp_path / "other.trz", "w") as archive:
+        archive.writestr("notes.txt", "no project")
+    with pytest.raises(InputError, match=r"other.trz: is a zip archive without a Tracker project \(.trk\) in it"):
+        read_track(tmp_path / "other.trz")
+
+
+def test_tracker_projects_that_cannot_be_read_say_why(tmp_path):
+    path = tmp_path / "broken.trk"
+    path.write_text('<?xml version="1.0"?>\n<object class="org.opensourcephysics.cabrillo.tracker.TrackerPanel">')
+    with pytest.raises(InputError, match=r"broken.trk: is not a readable Tracker project \(XML error"):
+        read_track(path)
+    path.write_text('<?xml version="1.0"?>\n<object class="org.example.Other"></object>')
+    with pytest.raises(InputError, match=r"broken.trk: is XML but not a Tracker project"):
+        read_track(path)
+    xml, *_ = tracker_project()
+    path.write_text(xml.replace(f'{_prop("delta_t", "double", DELTA_T_MS)}', ""))
+    with pytest.raises(InputError, match=r"broken.trk: the Tracker project gives no frame timing \(delta_t\); give the "
+                                         r"frame rate with --fps"):
+        read_track(path)
+    assert read_track(path, ImportOptions(fps=50.0)).time_s[1] == pytest.approx(0.1 + 0.02)
+
+
+# --- the real ball toss ---------------------------------------------------------------------------
+
+#: The ball toss's calibration as its README gives it (a metre stick): 398.7 px/m.
+BALL_TOSS_PX_PER_M = 398.7
+#: Tracker's own clip: 13 frames 66 ms apart (an excerpt of every other frame of a 30 fps clip).
+BALL_TOSS_DELTA_T_S = 0.066
+
+
+def test_real_ball_toss_is_read_with_its_calibration():
+    """The 11 hand marks of Tracker's BallToss.trz come out in m with the metre stick's calibration, time in
+    Tracker's 66 ms steps; the origin is at the first mark. Its toss is ballistic: the fitted g lies within 5 %
+    of 9.81 m/s² (a unit or a transform mistake is off by far more)."""
+    trz = real_recording("tracker-balltoss", "BallToss.trz")
+    track = read_track(trz)
+    assert track.unit == "m" and track.time_s.size == 11
+    assert track.calibration["tracker_px_per_unit"] == pytest.approx(BALL_TOSS_PX_PER_M, abs=0.05)
+    np.testing.assert_allclose(np.diff(track.time_s), BALL_TOSS_DELTA_T_S, atol=1e-12)
+    assert (track.x[0], track.y[0]) == pytest.approx((0.0, 0.0), abs=1e-9)
+    a = np.polyfit(track.time_s, track.y, 2)[0]
+    assert -2 * a == pytest.approx(9.81, rel=0.05)
+    assert "point mass 'ball' (11 marks)" in track.mapping
+
+
+@pytest.mark.xfail(strict=True, reason="the ball toss's g is 10.27 ± 0.04 m/s² with Tracker's own 66 ms frame step "
+                                      "(10.06 with the 30 fps source's 66.7 ms): 12 of its standard errors off; its "
+                                      "horizontal acceleration is 0.20 ± 0.02 m/s², not 0, so the marks are not a "
+                                      "parabola in the metre stick's plane (the ball off that plane, perspective)")
+def test_real_ball_toss_gives_g_within_its_uncertainty():
+    track = read_track(real_recording("tracker-balltoss", "BallToss.trz"))
+    (a, _, _), cov = np.polyfit(track.time_s, track.y, 2, cov=True)
+    assert abs(-2 * a - 9.81) <= 2 * 2 * math.sqrt(cov[0, 0])
+
+
+# --- the real Photron clip ------------------------------------------------------------------------
+
+#: The clip's README: a ball about 125 px across falling 2.65 px per frame, 15 frames at 30 000 fps.
+MRAW_FPS, MRAW_DIAMETER_PX, MRAW_STEP_PX = 30000.0, 125.0, 2.65
+#: The tracked centre's step may scatter by this per frame (a real backlit edge at 12 bit).
+MRAW_STEP_TOL_PX = 0.2
+
+
+def test_real_photron_clip_is_tracked_in_every_frame():
+    """The frame rate comes from the .cihx; the backlit ball is found in all 15 frames, ~125 px across, falling
+    2.65 px per frame (the clip's README); too short (0.5 ms) to see gravity (1 µm), so it is refused as a
+    recording, saying so."""
+    cihx = real_recording("photron-mraw", "ball_12bit.cihx")
+    track = read_track(cihx)
+    assert track.frame_rate_hz == MRAW_FPS and track.unit == "px" and track.source_format == "mraw"
+    assert np.count_nonzero(np.isfinite(track.y)) == 15
+    np.testing.assert_allclose(np.diff(track.time_s), 1 / MRAW_FPS, rtol=1e-12)
+    assert 2 * track.calibration["ball_radius_px"] == pytest.approx(MRAW_DIAMETER_PX, rel=0.03)
+    steps = np.diff(track.y)
+    assert np.mean(steps) == pytest.approx(MRAW_STEP_PX, abs=0.05)
+    assert np.all(np.abs(steps - MRAW_STEP_PX) < MRAW_STEP_TOL_PX + 0.1)
+    assert read_track(cihx.with_suffix(".mraw")).time_s.size == 15  # the .mraw finds its .cihx
+    with pytest.raises(InputError, match=r"ball_12bit.cihx: no bounce found"):
+        trajectory_from_log(cihx)
+    scale = -1e-4  # m/px, given (image rows point down)
+    trajectory = trajectory_from_log(cihx, scale_m_per_px=scale)
+    np.testing.assert_allclose(trajectory["y"].values, track.y * scale)
+    np.testing.assert_allclose(trajectory["x"].values, track.x * abs(scale))
+
+
+def test_uncalibrated_tracker_project_gives_image_px(tmp_path):
+    """Without a coordinate system (Tracker's default: 1 px per unit) the marks stay image px, y down, and are
+    calibrated from gravity as a px log is: the scale comes back within 0.5 % and e within its tolerance."""
+    xml, time, _, world_y = tracker_project({0: (100.0, 450.0, 0.0)})  # a level camera that stays put
+    start, end = xml.index('<property name="coords"'), xml.index('<property name="length_unit"')
+    path = tmp_path / "uncalibrated.trk"
+    path.write_text(xml[:start] + xml[end:], encoding="utf-8")
+    track = read_track(path)
+    assert track.unit == "px" and "no calibration" in track.mapping
+    result = analyse_recording(path)
+    assert result.trajectory.attrs["scale_m_per_px"] == pytest.approx(-1 / PX_PER_M, rel=5e-3)
+    assert result.fit["restitution"]["e"]["value"] == pytest.approx(E_TRUE, abs=E_TOL)

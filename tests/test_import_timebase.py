@@ -1,0 +1,106 @@
+"""Time from the import: dropped and duplicated frames in tracking tables are handled, not taken for motion.
+
+The truth is the tests' closed-form bouncing ball sampled at the instants the frames were really taken;
+each table is written as its tool writes it, with the fault in it.
+"""
+
+import numpy as np
+import pytest
+
+from dropfit import analyse_recording
+from dropfit.importers import ImportOptions, read_track
+
+from helpers import bouncing_ball
+
+FPS = 30.0  # frames/s of the exports
+DROP_M, E_TRUE, CENTRE_M = 1.0, 0.6, 0.02  # m, 1, m
+PX_PER_M, FLOOR_ROW_PX = 400.0, 450.0  # px/m, image row of height 0
+NOISE_M = 0.0005  # m, the tracked height's scatter (seeded)
+#: e from a 30 fps track with that noise (its bounces' flights last 13–16 frames): several of its se.
+E_TOL = 0.01  # 1
+LATE_FRAME, LATE_BY_S = 20, 0.035 - 1 / FPS  # the frame after a 35 ms step (a 30 fps camera's late frame)
+
+
+def heights(time_s, seed=0):
+    noise = np.random.default_rng(seed).normal(0.0, NOISE_M, np.size(time_s))
+    return bouncing_ball(time_s, DROP_M, E_TRUE) + CENTRE_M + noise
+
+
+def tracker_table(time_s, y_m, x_m):
+    """Tracker's text export: the track's name, then t x y with tabs, s and m."""
+    return "mass A\nt\tx\ty\n" + "".join(f"{t:.4f}\t{x:.5f}\t{y:.5f}\n" for t, x, y in zip(time_s, x_m, y_m))
+
+
+def mtrack2_table(frames, rows_px, columns_px):
+    lines = ["Tracks 1 to 1", "Frame\tX1\tY1\tFlag1"]
+    lines += [f"{f}\t{c:.3f}\t{r:.3f}\t0" for f, c, r in zip(frames, columns_px, rows_px)]
+    return "\n".join(lines) + "\n"
+
+
+def e_of(path, **options):
+    return analyse_recording(path, **options).fit["restitution"]["e"]["value"]
+
+
+def test_a_late_frame_in_a_timed_table_keeps_its_own_time(tmp_path):
+    """A 35 ms step in a 30 fps export: the samples keep the times the export gives (the ball was where the
+    late frame shows it, 1.7 ms later), and e comes back."""
+    time = np.arange(60) / FPS
+    time[LATE_FRAME:] += LATE_BY_S
+    path = tmp_path / "late.txt"
+    path.write_text(tracker_table(time, heights(time), 0.3 * time))
+    track = read_track(path)
+    np.testing.assert_allclose(track.time_s, np.round(time, 4), atol=1e-9)
+    assert e_of(path) == pytest.approx(E_TRUE, abs=E_TOL)
+
+
+def test_a_dropped_frame_leaves_a_gap_in_a_frame_indexed_table(tmp_path):
+    """MTrack2 rows of frames 1–60 with frame 21 dropped: times come from the frame numbers (a gap of two frame
+    intervals), not from the row count (which would shift every later sample by a frame and bias e)."""
+    frames = np.setdiff1d(np.arange(1, 61), [21])
+    time = (frames - 1) / FPS
+    path = tmp_path / "Results.txt"
+    path.write_text(mtrack2_table(frames, FLOOR_ROW_PX - PX_PER_M * heights(time), 50 + 10 * time))
+    track = read_track(path, ImportOptions(fps=FPS))
+    np.testing.assert_allclose(track.time_s, time, atol=1e-12)
+    assert np.diff(track.time_s).max() == pytest.approx(2 / FPS)
+    assert e_of(path, fps=FPS) == pytest.approx(E_TRUE, abs=E_TOL)
+
+
+def test_the_same_frame_or_time_twice_is_dropped(tmp_path):
+    """A row exported twice (the same frame number, or the same time) is read once, with a note."""
+    frames = np.arange(1, 61)
+    time = (frames - 1) / FPS
+    rows, columns = FLOOR_ROW_PX - PX_PER_M * heights(time), 50 + 10 * time
+    twice = np.insert(np.arange(60), 31, 30)
+    mtrack2 = tmp_path / "twice.txt"
+    mtrack2.write_text(mtrack2_table(frames[twice], rows[twice], columns[twice]))
+    track = read_track(mtrack2, ImportOptions(fps=FPS))
+    np.testing.assert_allclose(track.time_s, time, atol=1e-12)
+    assert "1 row of a frame already seen" in track.notes[0]
+    tracker = tmp_path / "twice_tracker.txt"
+    tracker.write_text(tracker_table(time[twice], heights(time)[twice], 0.3 * time[twice]))
+    track = read_track(tracker)
+    np.testing.assert_allclose(track.time_s, np.round(time, 4), atol=1e-9)
+    assert "1 sample at a time already seen" in track.notes[0]
+    assert e_of(tracker) == pytest.approx(E_TRUE, abs=E_TOL)
+
+
+@pytest.mark.parametrize("kind", ["mtrack2", "tracker"])
+def test_a_duplicated_video_frame_is_a_dropout_not_a_pause(kind, tmp_path):
+    """The video showed frame 25 twice: the table repeats its position at the next frame's time. That sample is
+    made a dropout (its time is not when the ball was there); a ball at rest (many equal positions) is kept."""
+    frames = np.arange(1, 61)
+    time = (frames - 1) / FPS
+    y_m, x_m = heights(time), 0.1 + 0.25 * time
+    y_m[25], x_m[25] = y_m[24], x_m[24]  # frame 26 shows frame 25 again
+    path = tmp_path / f"{kind}.txt"
+    if kind == "mtrack2":
+        path.write_text(mtrack2_table(frames, FLOOR_ROW_PX - PX_PER_M * y_m, PX_PER_M * x_m))
+        options = {"fps": FPS}
+    else:
+        path.write_text(tracker_table(time, y_m, x_m))
+        options = {}
+    track = read_track(path, ImportOptions(**options))
+    assert np.isnan(track.y[25]) and np.isfinite(track.y[24]) and np.isfinite(track.y[26])
+    assert "1 repeated position (a duplicated video frame) set as dropout" in track.notes
+    assert e_of(path, **options) == pytest.approx(E_TRUE, abs=E_TOL)
