@@ -103,6 +103,28 @@ def flight_velocity(t, t_apex, y_apex, k=0.0, g=STANDARD_GRAVITY_M_S2):
     return np.where(dt < 0, v_terminal * np.tan(np.minimum(x, np.pi / 2)), -v_terminal * np.tanh(x))
 
 
+def horizontal_position(t, t_ref, x_ref, u_ref, k=0.0):
+    """Horizontal position in m of a ball in flight at times ``t`` (s), with quadratic drag along x.
+
+    From ẍ = −k ẋ|ẋ| and the position ``x_ref`` (m) and velocity ``u_ref`` (m/s) at ``t_ref`` (s):
+    x = x_ref + sign(u) ln(1 + k|u|τ)/k with τ = t − t_ref; the line x_ref + u τ without drag (k = 0,
+    1/m). The drag of the horizontal motion alone: the coupling through the speed |V| of the full
+    velocity is left out, as the vertical flights leave it out.
+    """
+    tau = np.asarray(t, dtype=float) - t_ref
+    if k == 0.0:
+        return x_ref + u_ref * tau
+    with np.errstate(invalid="ignore"):
+        return x_ref + np.sign(u_ref) * np.log1p(k * abs(u_ref) * tau) / k
+
+
+def horizontal_velocity(t, t_ref, x_ref, u_ref, k=0.0):
+    """Horizontal velocity in m/s at times ``t`` (s): u / (1 + k|u|τ), the derivative of
+    :func:`horizontal_position` (same parameters; ``x_ref`` unused)."""
+    tau = np.asarray(t, dtype=float) - t_ref
+    return u_ref / (1.0 + k * abs(u_ref) * tau)
+
+
 def speed_below_apex(drop_m, k=0.0, g=STANDARD_GRAVITY_M_S2, rising=False):
     """Speed in m/s of a ball ``drop_m`` (m) below the apex of its flight.
 

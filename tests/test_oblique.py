@@ -1,0 +1,194 @@
+"""Oblique bounces (2-D motion): the horizontal column of a height log, the tangential velocities and angles
+at each impact against closed-form bounce sequences written here (no dropfit code), e free of any
+horizontal drift, and the seed's Example 3 (refsim's recording) through the workflow's settings."""
+
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+import yaml
+from scipy.integrate import solve_ivp
+
+from dropfit import analyse_recording
+from dropfit.errors import InputError
+from dropfit.heightlog import make_trajectory, read_height_log, trajectory_from_log
+from dropfit.physics import horizontal_position, horizontal_velocity
+from dropfit.report import recording_report_html
+from dropfit.settings import settings_from_config
+
+REPO = Path(__file__).resolve().parents[1]
+G = 9.81  # m/s², the seed's
+#: The seed's Example 3: the table (m), the horizontal speed (m/s), e, and its printed results.
+TABLE_M, SPEED_M_S, E_SEED = 0.9, 3.0, 0.745
+SEED_PEAKS_M = [0.5, 0.277, 0.154, 0.085, 0.047]
+SEED_T_INF_S, SEED_DISTANCE_M = 2.93, 8.79
+EXAMPLE3 = "seed_example3_oblique"
+
+
+def bounce_log(e=0.745, drop_m=0.9, speed_m_s=3.0, tangential_ratio=1.0, rate_hz=200.0, noise_m=1e-3, seed=3,
+               duration_s=2.6, drift_m_s=0.0):
+    """Closed-form bounces of a point ball (instantaneous impacts, no drag, contact height 0): each impact
+    reverses the vertical velocity times e and multiplies the horizontal one by ``tangential_ratio``;
+    ``drift_m_s`` adds a constant horizontal velocity to every sample (a camera panning). Returns time
+    (s), y and x (m) with Gaussian noise, and the true (vy_in, vx_in, vx_out) of each impact."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(0.0, duration_s, 1.0 / rate_hz)
+    y, x = np.zeros_like(t), np.zeros_like(t)
+    start, height, vy, vx, x0 = 0.0, drop_m, 0.0, speed_m_s, 0.0
+    impacts = []
+    while start < duration_s and len(impacts) < 40:
+        # flight: y = height + vy τ − g τ²/2 until y = 0
+        end = start + (vy + np.sqrt(vy**2 + 2 * G * height)) / G
+        inside = (t >= start) & (t < end)
+        tau = t[inside] - start
+        y[inside] = height + vy * tau - 0.5 * G * tau**2
+        x[inside] = x0 + vx * tau
+        v_in = np.sqrt(vy**2 + 2 * G * height)
+        impacts.append((v_in, vx, tangential_ratio * vx))
+        x0 += vx * (end - start)
+        start, height, vy, vx = end, 0.0, e * v_in, tangential_ratio * vx
+    return t, y + rng.normal(0, noise_m, t.size), x + drift_m_s * t + rng.normal(0, noise_m, t.size), impacts
+
+
+def analysed(t, y, x=None):
+    """dropfit's analysis of the point ball's bounces, logged as a ball of radius 3 cm's centre."""
+    trajectory = make_trajectory(t, y + 0.03, "closed-form bounces", "synthetic", x_m=x)
+    return analyse_recording(trajectory, floor_m=0.0, ball_radius_m=0.03, gravity_m_s2=G, drag="off")
+
+
+def test_horizontal_flight_closed_form_matches_an_integration():
+    """x(t) and vx(t) with quadratic drag along x against solve_ivp of ẍ = −k ẋ|ẋ|, both directions."""
+    for u in (3.0, -2.0):
+        k, t = 0.02, np.linspace(0.0, 0.8, 9)
+        solution = solve_ivp(lambda _, s: [s[1], -k * s[1] * abs(s[1])], (0.0, 0.8), [0.4, u], t_eval=t,
+                             rtol=1e-12, atol=1e-12)
+        assert np.allclose(horizontal_position(t, 0.0, 0.4, u, k), solution.y[0], atol=1e-9)
+        assert np.allclose(horizontal_velocity(t, 0.0, 0.4, u, k), solution.y[1], atol=1e-9)
+    assert np.allclose(horizontal_position(t, 0.2, 1.0, 3.0), 1.0 + 3.0 * (t - 0.2))
+
+
+@pytest.mark.parametrize("ratio", [1.0, 0.8])
+def test_tangential_velocities_angles_and_the_check(ratio):
+    """vx before and after each impact, the angles above the floor and tan θ′ = e tan θ, against the closed
+    form: a smooth floor keeps vx ("consistent"), one that takes 20 % of it is named."""
+    t, y, x, truth = bounce_log(tangential_ratio=ratio)
+    impacts = analysed(t, y, x).impacts
+    n = min(len(impacts), 5)
+    assert n >= 4
+    for i in range(n):
+        v_in, vx_in, vx_out = truth[i]
+        row = impacts.iloc[i]
+        assert abs(row["vx_in_m_s"] - vx_in) < 3 * row["vx_in_se_m_s"] + 1e-6
+        assert abs(row["vx_out_m_s"] - vx_out) < 3 * row["vx_out_se_m_s"] + 1e-6
+        assert abs(row["tangential_ratio"] - ratio) < 3 * row["tangential_ratio_se"]
+        assert abs(row["delta_vx_m_s"] - (vx_out - vx_in)) < 3 * row["delta_vx_se_m_s"] + 1e-6
+        theta_in = np.degrees(np.arctan2(v_in, vx_in))  # above the floor
+        theta_out = np.degrees(np.arctan2(E_SEED * v_in, vx_out))
+        assert abs(row["theta_in_deg"] - theta_in) < 3 * row["theta_in_se_deg"] + 1e-6
+        assert abs(row["theta_out_deg"] - theta_out) < 3 * row["theta_out_se_deg"] + 1e-6
+        assert abs(row["e_tan_theta_in"] - E_SEED * v_in / vx_in) < 3 * row["e_tan_theta_in_se"]
+        assert abs(row["tan_theta_out"] - E_SEED * v_in / vx_out) < 3 * row["tan_theta_out_se"]
+        if ratio == 1.0:
+            assert row["angle_check"] == "consistent: tangential velocity kept"
+        else:
+            lost = float(row["angle_check"].split("lost ")[1].split(" %")[0])
+            assert row["angle_check"].endswith("%: friction or spin") and abs(lost - 20.0) < 1.0
+
+
+def test_horizontal_drift_never_biases_e():
+    """The same vertical motion with no x, with x at rest, and with a ball moving at 3 m/s plus a drift:
+    every column of the 1-D analysis is the same, and the 1-D one has no oblique columns."""
+    t, y, x, _ = bounce_log(tangential_ratio=1.0, drift_m_s=0.4)
+    plain = analysed(t, y)
+    assert "vx_in_m_s" not in plain.impacts and "horizontal" not in plain.analysis.summary
+    assert "horizontal_distance" not in plain.fit["theory"]
+    for horizontal in (np.zeros_like(t), x):
+        moving = analysed(t, y, horizontal)
+        pd.testing.assert_frame_equal(moving.impacts[plain.impacts.columns], plain.impacts, rtol=1e-12)
+        assert moving.fit["restitution"]["e"] == plain.fit["restitution"]["e"]
+    still = analysed(t, y, np.random.default_rng(1).normal(0, 1e-3, t.size)).impacts
+    assert all(check.startswith("not tested: no horizontal motion") for check in still["angle_check"])
+
+
+def write(path, text):
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+def test_height_log_horizontal_column(tmp_path):
+    """x_m, x_cm, x_mm, x_px (through the scale's size) into the trajectory's x in m; empty cells NaN."""
+    rows = "\n".join(f"{0.01 * i:.2f},{100 - i},{12.5 * i}" for i in range(5))
+    for unit, factor in (("cm", 0.01), ("mm", 0.001), ("m", 1.0)):
+        trajectory = trajectory_from_log(write(tmp_path / f"{unit}.csv", f"time_s,y_cm,x_{unit}\n{rows}\n"))
+        assert np.allclose(trajectory["x"].values, factor * 12.5 * np.arange(5))
+        assert trajectory["x"].attrs["units"] == "m"
+    trajectory = trajectory_from_log(write(tmp_path / "px.csv", f"time_s,y_px,x_px\n{rows}\n"), scale_m_per_px=0.002)
+    assert np.allclose(trajectory["x"].values, 0.002 * 12.5 * np.arange(5))
+    gap = trajectory_from_log(write(tmp_path / "gap.csv", "time_s,y_m,x_m\n0,1,0.1\n0.01,0.99,\n"))
+    assert np.isnan(gap["x"].values[1]) and gap["quality"].values.tolist() == [0, 0]
+    assert "x" not in trajectory_from_log(write(tmp_path / "1d.csv", "time_s,y_m\n0,1\n0.01,0.99\n"))
+    assert read_height_log(tmp_path / "1d.csv", horizontal=True)[3:] == (None, None)
+
+
+@pytest.mark.parametrize("text, message", [
+    ("time_s,y_m,x_m,x_cm\n0,1,0,0\n", "keep one of them"),
+    ("time_s,y_m,x_in\n0,1,0\n", "x_in has a unit dropfit does not read"),
+    ("time_s,y_m,x_m\n0,1,abc\n", "x_m"),
+    ("time_s,y_m,x_m\n0,1,inf\n", "x_m is infinite in data row 1"),
+    ("time_s,y_m,x_px\n0,1,3\n", "column x_px needs a scale"),
+])
+def test_bad_horizontal_column(tmp_path, text, message):
+    """Each bad horizontal column gets one line naming the file."""
+    path = write(tmp_path / "bad.csv", text)
+    with pytest.raises(InputError, match=message) as error:
+        trajectory_from_log(path)
+    assert "bad.csv" in str(error.value) and "\n" not in str(error.value)
+
+
+def example3_row():
+    config = yaml.safe_load((REPO / "config" / "config.yaml").read_text(encoding="utf-8"))
+    sheet = pd.read_csv(REPO / "config" / "samples.tsv", sep="\t", comment="#").set_index("sample_id", drop=False)
+    return config, sheet.loc[EXAMPLE3]
+
+
+def test_seed_example3_data_is_refsims(tmp_path):
+    """The committed recording is what the workflow's rule (python -m refsim) writes."""
+    subprocess.run([sys.executable, "-m", "refsim", EXAMPLE3, str(tmp_path / "log.csv")], cwd=REPO, check=True,
+                   timeout=120)
+    assert (tmp_path / "log.csv").read_bytes() == (REPO / "data" / "synthetic" / f"{EXAMPLE3}.csv").read_bytes()
+
+
+def test_seed_example3_reproduced_with_the_workflows_settings(monkeypatch):
+    """The seed's Example 3, simulated by refsim and analysed as the workflow analyses its sample
+    (config and sample row): the peaks, t∞, u t∞ and e of the example within 3 standard errors, and the
+    closed forms behind them round to the seed's printed numbers."""
+    t0 = np.sqrt(2 * TABLE_M / G)
+    peaks = TABLE_M * E_SEED ** (2 * np.arange(1, 6))
+    t_inf = t0 * (1 + E_SEED) / (1 - E_SEED)
+    assert np.round(peaks, 3).tolist() == SEED_PEAKS_M
+    assert round(t_inf, 2) == SEED_T_INF_S and round(SPEED_M_S * t_inf, 2) == SEED_DISTANCE_M
+
+    config, row = example3_row()
+    ball, settings = settings_from_config(config, row)
+    monkeypatch.chdir(REPO)
+    result = analyse_recording(row["path"], ball_radius_m=ball.radius_m, ball_mass_kg=ball.mass_kg,
+                               ball_type=ball.type, sample_id=EXAMPLE3, settings=settings)
+    impacts, fit = result.impacts, result.fit
+    measured = impacts["h_after_m"].to_numpy()[:5]
+    assert np.all(np.abs(measured - peaks) < 3 * impacts["h_after_se_m"].to_numpy()[:5])
+    predicted = fit["theory"]["total_bouncing_time"]["predicted"]
+    assert abs(predicted["value"] - t_inf) < 3 * predicted["se"]
+    distance = fit["theory"]["horizontal_distance"]["predicted"]
+    assert abs(distance["value"] - SPEED_M_S * t_inf) < 3 * distance["se"]
+    speed = fit["theory"]["horizontal_distance"]["release_speed"]
+    assert abs(speed["value"] - SPEED_M_S) < 3 * speed["se"]
+    e = fit["restitution"]["e"]
+    assert fit["restitution"]["model"] == "constant" and abs(e["value"] - E_SEED) < 3 * e["se"]
+    assert (impacts["angle_check"] == "consistent: tangential velocity kept").all()
+
+    html = recording_report_html(result.trajectory, result.flights, impacts, fit, b"png", path_png=b"path")
+    assert "Oblique bounces (2-D motion)" in html and 'alt="path y(x)"' in html
+    assert "consistent: tangential velocity kept" in html
