@@ -214,7 +214,7 @@ def analyse_trajectory(trajectory, settings=None, source=None):
     if "video" in attrs:  # a video's later bounces may be too briefly filmed to resolve
         analysis = video_limits.select_resolved_impacts(analysis, attrs["video"], interval)
     if "x" in trajectory:  # a 2-D recording: the tangential velocities and angles (e stays the vertical fit's)
-        analysis = add_horizontal(analysis, time, trajectory["x"].values, settings.drag, options["noise_correlation"])
+        analysis = add_horizontal(analysis, time, trajectory["x"].values, options["noise_correlation"])
     record = {key: plain(value) for key, value in options.items() if key != "source"}
     summary = dict(analysis.summary, analysis_options=record, gravity=settings.site_gravity().record())
     return dataclasses.replace(analysis, summary=summary)

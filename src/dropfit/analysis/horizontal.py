@@ -1,36 +1,38 @@
 """Oblique bounces: the horizontal motion of a 2-D recording, after the vertical analysis.
 
 Each flight's horizontal position x(t) is fitted on the samples the vertical fit gave that flight (the
-flights table's time windows): a line, or with a quadratic drag k shared by all flights when the
-Bayesian information criterion prefers it (:func:`dropfit.physics.horizontal_position`, the drag
-model of the vertical flights along x). At every impact the tangential velocities before (at
-touchdown) and after (at lift-off) follow, with the angles of the velocity above the floor and the
-seed's check of a smooth floor, tan θ′ = e tan θ (the tangential velocity kept, the normal one
-reversed with e).
+flights table's time windows), with the vertical analysis' drag: quadratic drag acts on the full
+velocity, so u slows by k u √(u² + v²) with v the fitted vertical flight's velocity
+(:func:`dropfit.physics.horizontal_flight`); without drag x is a line. The drag parameter k is the
+vertical fit's, held, and its standard error is carried into every horizontal quantity. At every
+impact the tangential velocities before (at touchdown) and after (at lift-off) follow, with the angles
+of the velocity above the floor and the seed's check of a smooth floor, tan θ′ = e tan θ (the
+tangential velocity kept, the normal one reversed with e).
 
-e stays the vertical analysis' alone: this module reads the impacts table (touchdown and lift-off
-times, the normal speeds ``v_in_m_s`` and ``v_out_m_s``) and adds columns to it, so a horizontal
-drift never moves e.
+e stays the vertical analysis' alone: this module reads the analysis' tables (touchdown and lift-off
+times, the normal speeds ``v_in_m_s`` and ``v_out_m_s``, the flights' apexes) and adds columns to the
+impacts table, so a horizontal drift never moves e.
 """
 
 from __future__ import annotations
 
 import dataclasses
-from dataclasses import dataclass
 
 import numpy as np
-from scipy.optimize import least_squares
 
-from ..numerics import jacobian, propagate, robust_sigma
-from ..physics import horizontal_position, horizontal_velocity
+from ..numerics import jacobian, linear_fit, propagate, robust_sigma
+from ..physics import horizontal_flight
 from ..restitution import estimate
-from .flights import MIN_SAMPLES_PER_FLIGHT, bic, fit_covariance
+from .flights import MIN_SAMPLES_PER_FLIGHT
 from .tables import add_with_interval
 from .uncertainty import correlated_noise_factor
 
 #: A sample whose horizontal residual exceeds this many robust standard deviations is left out
 #: (a tracker jump in x); the same threshold as the vertical fit's outliers.
 HORIZONTAL_OUTLIER_SIGMAS = 5.0
+#: Passes of "fit, recompute the drag's shape of u(t) with the fitted u": the shape depends on u only
+#: through the drag, weakly.
+SHAPE_PASSES = 2
 #: A horizontal velocity below this many standard errors is no horizontal motion: the angle check is
 #: not made (a vertical drop filmed by a video has x, but no tangential velocity to keep or lose).
 MOTION_IN_SE = 3.0
@@ -43,151 +45,135 @@ HORIZONTAL_COLUMNS = ["vx_in_m_s", "vx_out_m_s", "delta_vx_m_s", "tangential_rat
                       "theta_out_deg", "tan_theta_out", "e_tan_theta_in"]
 
 
-@dataclass
-class HorizontalFit:
-    """The joint fit of every flight's x(t): θ = (x_ref_0, u_ref_0, …, [k]), each flight's position (m) and
-    velocity (m/s) at its reference time ``t_ref`` (s, the mean time of its samples) and, with
-    ``with_drag``, the shared drag parameter k (1/m); ``covariance`` of θ; ``n_samples`` per flight
-    (0 for a flight without enough x samples, whose values are NaN); ``bic`` of the line and drag models
-    tried; ``noise_m``, the residuals' robust standard deviation."""
-
-    t_ref: np.ndarray
-    theta: np.ndarray
-    covariance: np.ndarray
-    with_drag: bool
-    n_samples: np.ndarray
-    bic: dict
-    noise_m: float
-
-    def drag_k(self, theta):
-        """k (1/m) of ``theta``: fitted, or 0 for lines."""
-        return float(theta[-1]) if self.with_drag else 0.0
-
-    def velocity(self, theta, flight, t):
-        """Horizontal velocity (m/s) of ``flight`` at time ``t`` (s)."""
-        return horizontal_velocity(t, self.t_ref[flight], theta[2 * flight], theta[2 * flight + 1],
-                                   self.drag_k(theta))
-
-    def position(self, theta, flight, t):
-        """Horizontal position (m) of ``flight`` at times ``t`` (s)."""
-        return horizontal_position(t, self.t_ref[flight], theta[2 * flight], theta[2 * flight + 1],
-                                   self.drag_k(theta))
-
-
-def fit_horizontal(time_s, x_m, bounds, drag="auto", noise_correlation=0.0):
-    """Fit every flight's horizontal position jointly: lines, or with a shared quadratic drag.
+def fit_flight_x(t, x, apex, k, g, noise_correlation=0.0):
+    """One flight's horizontal motion: x = x_ref + u_ref d(t), with the drag's shape d(t) (s) of
+    :func:`dropfit.physics.horizontal_flight` per unit u_ref, fitted by linear least squares; samples
+    more than :data:`HORIZONTAL_OUTLIER_SIGMAS` robust standard deviations off are left out.
 
     Parameters
     ----------
-    time_s, x_m : numpy.ndarray
-        Sample times (s) and horizontal positions (m, NaN where not measured).
-    bounds : list of (float, float)
-        Each flight's time window (s, open), as the vertical fit assigned its samples.
-    drag : {"auto", "off", "on"}
-        The analysis' drag option: k fitted when the BIC prefers it, never, or always.
+    t, x : numpy.ndarray
+        The flight's sample times (s) and horizontal positions (m).
+    apex : (float, float)
+        The vertical flight's apex time (s) and height (m).
+    k, g : float
+        The drag parameter (1/m; 0 for a line) and g (m/s²).
     noise_correlation : float
-        Lag-1 autocorrelation of successive samples' errors (a video's tracked centre); the covariance
-        is widened by (1 + ρ)/(1 − ρ) as the vertical fit's is.
+        Lag-1 autocorrelation of successive samples' errors; the covariance is widened by
+        (1 + ρ)/(1 − ρ) as the vertical fit's is.
 
     Returns
     -------
-    HorizontalFit or None
-        None when no flight has :data:`MIN_SAMPLES_PER_FLIGHT` samples with x.
+    dict
+        ``t_ref`` (s, the samples' mean time), ``u_ref`` (m/s) with ``u_ref_se``, ``x_ref`` (m), the
+        ``motion`` function t ↦ (x in m, u in m/s), ``n_samples``, the residuals' ``noise_m`` and their sum
+        of squares ``rss_m2``.
     """
-    time_s, x_m = np.asarray(time_s, dtype=float), np.asarray(x_m, dtype=float)
-    pieces = []
-    for start, end in bounds:
-        inside = (time_s > start) & (time_s < end) & np.isfinite(x_m)
-        pieces.append((time_s[inside], x_m[inside]))
-    usable = np.array([t.size >= MIN_SAMPLES_PER_FLIGHT for t, _ in pieces])
-    if not usable.any():
-        return None
-    t_ref = np.array([t.mean() if ok else np.nan for (t, _), ok in zip(pieces, usable)])
-    kept = [np.ones(t.size, dtype=bool) for t, _ in pieces]
-    for attempt in range(3):  # fit, leave out the outliers (tracker jumps in x), fit again
-        fits = {False: _joint_fit(pieces, kept, usable, t_ref, False)}
-        if drag != "off":
-            fits[True] = _joint_fit(pieces, kept, usable, t_ref, True)
-        with_drag = drag == "on" or (drag == "auto" and bic(fits[True][0]) < bic(fits[False][0]))
-        result, theta = fits[with_drag]
-        noise = robust_sigma(result.fun)
-        outliers = np.abs(result.fun) > HORIZONTAL_OUTLIER_SIGMAS * max(noise, 1e-12)
-        if not outliers.any() or attempt == 2:
+    kept = np.ones(t.size, dtype=bool)
+    t_ref = float(np.mean(t))
+    u = float(np.polyfit(t - t_ref, x, 1)[0])
+    for last in [False] * (SHAPE_PASSES + 1) + [True]:
+        shape = horizontal_flight(t, t_ref, 1.0 if u == 0 else u, *apex, k, g)[0] / (1.0 if u == 0 else u)
+        coefficients, covariance = linear_fit(np.column_stack([np.ones(kept.sum()), shape[kept]]), x[kept])
+        residual = x - coefficients[0] - coefficients[1] * shape
+        # off the residuals' median: a jump pulls the whole fit, and with it every residual, aside
+        centre = np.median(residual[kept])
+        outliers = kept & (np.abs(residual - centre) > HORIZONTAL_OUTLIER_SIGMAS
+                           * max(robust_sigma(residual[kept], centre), 1e-12))
+        converged = abs(coefficients[1] - u) <= 1e-9 * max(abs(u), 1.0)
+        u = float(coefficients[1])
+        if last or (converged and not outliers.any()):
             break
-        start = 0
-        for flight in np.flatnonzero(usable):
-            used = np.flatnonzero(kept[flight])
-            kept[flight][used[outliers[start: start + used.size]]] = False
-            start += used.size
-    free = np.isfinite(theta)
-    covariance = np.zeros((theta.size, theta.size))
-    covariance[np.ix_(free, free)] = correlated_noise_factor(noise_correlation) * fit_covariance(result)
-    counts = np.array([np.count_nonzero(k) if ok else 0 for k, ok in zip(kept, usable)])
-    return HorizontalFit(t_ref, theta, covariance, with_drag, counts,
-                         {name: bic(fit[0]) for name, fit in zip(("line", "quadratic drag"), fits.values())},
-                         float(robust_sigma(result.fun)))
+        if kept.sum() - outliers.sum() >= MIN_SAMPLES_PER_FLIGHT:
+            kept &= ~outliers
+    x_ref = float(coefficients[0])
+
+    def motion(times):
+        displacement, velocity = horizontal_flight(np.atleast_1d(times), t_ref, u, *apex, k, g)
+        return x_ref + displacement, velocity
+
+    return {"t_ref": t_ref, "u_ref": u, "x_ref": x_ref, "motion": motion, "n_samples": int(kept.sum()),
+            "u_ref_se": float(np.sqrt(correlated_noise_factor(noise_correlation) * covariance[1, 1])),
+            "noise_m": robust_sigma(residual[kept]), "rss_m2": float(residual[kept] @ residual[kept])}
 
 
-def _joint_fit(pieces, kept, usable, t_ref, with_drag):
-    """Least-squares fit of the usable flights' kept samples: scipy's result (over the free parameters)
-    and the full θ (NaN for the flights without samples)."""
-    flights = np.flatnonzero(usable)
-    starts = []
-    for flight in range(len(pieces)):
-        t, x = (part[kept[flight]] for part in pieces[flight])
-        if flight in flights:
-            slope, intercept = np.polyfit(t - t_ref[flight], x, 1)
-            starts.extend([intercept, slope])
-        else:
-            starts.extend([np.nan, np.nan])
-    theta0 = np.array(starts + ([1e-3] if with_drag else []))
-    free = np.isfinite(theta0)
-
-    def residuals(values):
-        theta = theta0.copy()
-        theta[free] = values
-        k = theta[-1] if with_drag else 0.0
-        return np.concatenate([horizontal_position(pieces[f][0][kept[f]], t_ref[f], theta[2 * f], theta[2 * f + 1], k)
-                               - pieces[f][1][kept[f]] for f in flights])
-
-    lower = np.full(np.count_nonzero(free), -np.inf)
-    if with_drag:
-        lower[-1] = 0.0
-    result = least_squares(residuals, theta0[free], bounds=(lower, np.inf), x_scale="jac", xtol=1e-12, ftol=1e-12)
-    full = theta0.copy()
-    full[free] = result.x
-    return result, full
+def flight_motions(time_s, x_m, flights, k, g, noise_correlation=0.0):
+    """:func:`fit_flight_x` for every flight of the flights table (None for a flight with fewer than
+    :data:`MIN_SAMPLES_PER_FLIGHT` samples with x), with the drag k (1/m) and g (m/s²)."""
+    fits = []
+    for row in flights.itertuples(index=False):
+        inside = (time_s > row.t_start_s) & (time_s < row.t_end_s) & np.isfinite(x_m)
+        fits.append(fit_flight_x(time_s[inside], x_m[inside], (row.t_apex_s, row.y_apex_m), k, g, noise_correlation)
+                    if np.count_nonzero(inside) >= MIN_SAMPLES_PER_FLIGHT else None)
+    return fits
 
 
-def horizontal_velocities(fit, touchdown_s, liftoff_s, touchdown_se_s, liftoff_se_s):
-    """Each impact's horizontal velocity before (at touchdown, flight n − 1) and after (at lift-off,
-    flight n), m/s, and their covariance: the x fit's, plus the touchdown and lift-off times' standard
-    errors (s; from the vertical fit, independent of x) times the drag's deceleration.
+#: The largest drag parameter the horizontal fit searches (1/m): three times that of any common ball.
+MAX_HORIZONTAL_DRAG_K_PER_M = 1.0
+
+
+def horizontal_drag(time_s, x_m, flights, g, noise_correlation=0.0):
+    """The drag parameter k (1/m) that the horizontal motion shows, shared by all flights, and its standard
+    error: the flights' summed squared residuals profiled over k (each flight's x_ref and u_ref refitted
+    for every k), its minimum in 0 … :data:`MAX_HORIZONTAL_DRAG_K_PER_M`, and the variance 2σ² / RSS''
+    from its curvature (σ² = RSS / (samples − parameters), widened as :func:`fit_flight_x` widens).
+
+    The vertical fit's own k would not do: its flights feel drag as k v|v|, but a ball that also moves
+    sideways feels k |V| v, so with horizontal motion the vertical fit reads k high (refsim's tennis ball
+    thrown at 2 m/s: 0.027 against 0.020 1/m), and u would slow too fast.
+    """
+    def rss(k):
+        fits = [fit for fit in flight_motions(time_s, x_m, flights, k, g) if fit is not None]
+        return sum(fit["rss_m2"] for fit in fits), sum(fit["n_samples"] - 2 for fit in fits) - 1
+
+    from scipy.optimize import minimize_scalar
+
+    best = minimize_scalar(lambda k: rss(k)[0], bounds=(0.0, MAX_HORIZONTAL_DRAG_K_PER_M), method="bounded",
+                           options={"xatol": 1e-6})
+    k = float(best.x) if rss(best.x)[0] < rss(0.0)[0] else 0.0
+    minimum, dof = rss(k)
+    step = max(0.05 * k, 1e-3)
+    low = k - step if k > step else k  # a second difference, one-sided at the bound k = 0
+    values = [rss(low + i * step)[0] for i in range(3)]
+    curvature = (values[0] - 2 * values[1] + values[2]) / step**2
+    variance = correlated_noise_factor(noise_correlation) * 2 * minimum / max(dof, 1) / curvature if curvature > 0 \
+        else np.inf
+    return k, float(min(np.sqrt(variance), MAX_HORIZONTAL_DRAG_K_PER_M))
+
+
+def horizontal_velocities(time_s, x_m, flights, times, times_se, flight_of, k, k_se, g, noise_correlation=0.0):
+    """Horizontal velocities (m/s) of the flights ``flight_of`` at the times ``times`` (s), and their
+    covariance: each flight's fit (u(t) is u_ref times the drag's shape, so its se is u_ref's times that
+    shape), the drag k's standard error ``k_se`` (1/m; every flight refitted with k ± k_se, fully
+    correlated) and the times' standard errors ``times_se`` (s; from the vertical fit, independent of x)
+    times the drag's deceleration.
 
     Returns
     -------
-    (numpy.ndarray, numpy.ndarray)
-        (vx_in_1, vx_out_1, vx_in_2, …), shape (2n,), and its covariance, shape (2n, 2n).
+    (numpy.ndarray, numpy.ndarray, list)
+        The velocities, their covariance and the flights' fits (:func:`flight_motions`, with k).
     """
-    n = len(touchdown_s)
+    def velocities(drag_k):
+        fits = flight_motions(time_s, x_m, flights, drag_k, g, noise_correlation)
+        values, se = np.full(times.size, np.nan), np.full(times.size, np.nan)
+        for i, (time, flight) in enumerate(zip(times, flight_of)):
+            if fits[flight] is not None:
+                values[i] = fits[flight]["motion"](time)[1][0]
+                se[i] = abs(values[i] / fits[flight]["u_ref"]) * fits[flight]["u_ref_se"] if fits[flight]["u_ref"] else \
+                    fits[flight]["u_ref_se"]
+        return values, se, fits
 
-    def velocities(free_theta):
-        theta = fit.theta.copy()
-        theta[np.isfinite(fit.theta)] = free_theta
-        return np.ravel([[fit.velocity(theta, i, touchdown_s[i]), fit.velocity(theta, i + 1, liftoff_s[i])]
-                         for i in range(n)])
-
-    free = np.isfinite(fit.theta)
-    values = velocities(fit.theta[free])
-    lower = np.full(np.count_nonzero(free), -np.inf)
-    if fit.with_drag:
-        lower[-1] = 0.0
-    covariance = propagate(jacobian(velocities, fit.theta[free], lower), fit.covariance[np.ix_(free, free)])
-    k = fit.drag_k(fit.theta)
-    times_se = np.ravel(np.column_stack([touchdown_se_s, liftoff_se_s]))
-    # dvx/dt = −k vx|vx|: a touchdown known to ±1 ms moves vx by k vx² × 1 ms
+    values, se, fits = velocities(k)
+    covariance = np.zeros((times.size, times.size))
+    for flight in set(flight_of):  # one flight's two ends share its u_ref
+        ends = np.flatnonzero(flight_of == flight)
+        covariance[np.ix_(ends, ends)] = np.outer(se[ends], se[ends])
+    if k_se > 0:
+        drag_part = 0.5 * (velocities(k + k_se)[0] - velocities(max(k - k_se, 0.0))[0])
+        covariance += np.outer(drag_part, drag_part)
+    # du/dt = −k u |V|: a touchdown known to ±1 ms moves u by k u |V| × 1 ms (|V| ≥ |u|; taken as |u|)
     covariance += np.diag((k * values * np.abs(values) * times_se) ** 2)
-    return values, covariance
+    return values, covariance, fits
 
 
 def impact_angles(v_in, v_out, v_in_se, v_out_se, vx_pair, vx_covariance):
@@ -239,7 +225,7 @@ def angle_verdict(vx_in, vx_in_se, tan_out, e_tan_in, difference_se):
     return f"tangential velocity gained {100 * change:.1f} %: spin"
 
 
-def add_horizontal(analysis, time_s, x_m, drag="auto", noise_correlation=0.0):
+def add_horizontal(analysis, time_s, x_m, noise_correlation=0.0):
     """The analysis with the oblique columns added to its impacts table and a ``horizontal`` record in its
     summary.
 
@@ -249,8 +235,8 @@ def add_horizontal(analysis, time_s, x_m, drag="auto", noise_correlation=0.0):
         The vertical analysis (tables' times in s on the trajectory's clock).
     time_s, x_m : numpy.ndarray
         The trajectory's time (s) and horizontal position (m).
-    drag, noise_correlation
-        As :func:`fit_horizontal`.
+    noise_correlation : float
+        As :func:`fit_flight_x`.
 
     Returns
     -------
@@ -260,13 +246,19 @@ def add_horizontal(analysis, time_s, x_m, drag="auto", noise_correlation=0.0):
         (:func:`horizontal_record`); unchanged when x has too few samples.
     """
     impacts, flights, summary = analysis.impacts, analysis.flights, analysis.summary
-    bounds = list(zip(flights["t_start_s"], flights["t_end_s"]))
-    fit = fit_horizontal(time_s, x_m, bounds, drag, noise_correlation)
-    if fit is None:
+    g = summary["gravity_m_s2"]
+    # drag where the vertical analysis has it (the drag option, the ball), its k from the horizontal motion
+    k, k_se = horizontal_drag(time_s, x_m, flights, g, noise_correlation) if summary["drag_k_per_m"] > 0 else (0.0, 0.0)
+    # each impact's ends (touchdown in flight n − 1, lift-off in flight n), then the release (flight 0's apex)
+    n = len(impacts)
+    times = np.append(np.ravel(impacts[["t_touchdown_s", "t_liftoff_s"]].to_numpy()), summary["drop_apex_time_s"])
+    times_se = np.append(np.ravel(impacts[["t_touchdown_se_s", "t_liftoff_se_s"]].to_numpy()),
+                         flights["t_apex_se_s"].iloc[0])
+    flight_of = np.append(np.ravel(np.column_stack([np.arange(n), np.arange(1, n + 1)])), 0)
+    vx, vx_covariance, fits = horizontal_velocities(time_s, x_m, flights, times, times_se, flight_of, k, k_se, g,
+                                                    noise_correlation)
+    if np.isnan(vx).all():
         return analysis
-    vx, vx_covariance = horizontal_velocities(fit, impacts["t_touchdown_s"].to_numpy(), impacts["t_liftoff_s"].to_numpy(),
-                                              impacts["t_touchdown_se_s"].to_numpy(),
-                                              impacts["t_liftoff_se_s"].to_numpy())
     columns = {name: ([], []) for name in HORIZONTAL_COLUMNS}
     verdicts = []
     for i, row in enumerate(impacts.itertuples(index=False)):
@@ -283,33 +275,27 @@ def add_horizontal(analysis, time_s, x_m, drag="auto", noise_correlation=0.0):
         add_with_interval(impacts, name, np.array(value), np.array(se))
     impacts["angle_check"] = verdicts
     return dataclasses.replace(analysis, impacts=impacts,
-                               summary={**summary, "horizontal": horizontal_record(fit, summary, time_s, x_m)})
+                               summary={**summary, "horizontal": horizontal_record(
+                                   fits, summary, time_s, x_m, (vx[-1], np.sqrt(vx_covariance[-1, -1])), (k, k_se))})
 
 
-def horizontal_record(fit, summary, time_s, x_m):
-    """The summary's ``horizontal`` record: the drag model of x, the release's horizontal speed u (m/s, flight
-    0 at its apex) with its se, and the distance (m) from the release to where the ball is when it comes
-    to rest (the samples interpolated; NaN if it never does)."""
-    free = np.isfinite(fit.theta)
+def horizontal_record(fits, summary, time_s, x_m, release_speed, drag):
+    """The summary's ``horizontal`` record: the release's horizontal speed u and its se (m/s, flight 0 at its
+    apex, :func:`horizontal_velocities`), the distance (m) from the release to where the ball is when it
+    comes to rest (the samples interpolated; NaN if it never does), each flight's samples used, the
+    residuals' noise (m) and the drag k (1/m) with its se."""
     apex = float(summary["drop_apex_time_s"])
-
-    def release_speed(values):
-        theta = fit.theta.copy()
-        theta[free] = values
-        return np.array([fit.velocity(theta, 0, apex)])
-
-    u = float(release_speed(fit.theta[free])[0])
-    u_se = float(np.sqrt(propagate(jacobian(release_speed, fit.theta[free]), fit.covariance[np.ix_(free, free)])[0, 0]))
+    x_release = float(fits[0]["motion"](apex)[0][0]) if fits[0] is not None else np.nan
     finite = np.isfinite(x_m)
     rest = summary.get("rest_time_s", np.nan)
-    x_release = float(fit.position(fit.theta, 0, apex)) if fit.n_samples[0] else np.nan
     x_rest = float(np.interp(rest, time_s[finite], x_m[finite])) if np.isfinite(rest) else np.nan
-    return {"drag_model": "quadratic" if fit.with_drag else "none",
-            "drag_k_per_m": estimate(fit.drag_k(fit.theta), np.sqrt(fit.covariance[-1, -1]) if fit.with_drag else 0.0,
-                                     "1/m"),
-            "bic": fit.bic, "release_speed_m_s": u, "release_speed_se_m_s": u_se,
-            "distance_to_rest_m": x_rest - x_release, "noise_m": fit.noise_m,
-            "n_samples": fit.n_samples.tolist()}
+    return {"release_speed_m_s": float(release_speed[0]), "release_speed_se_m_s": float(release_speed[1]),
+            "distance_to_rest_m": x_rest - x_release,
+            "noise_m": float(np.nanmedian([fit["noise_m"] for fit in fits if fit is not None])),
+            "n_samples": [fit["n_samples"] if fit is not None else 0 for fit in fits],
+            "drag_k_per_m": drag[0], "drag_k_se_per_m": drag[1],
+            "drag": "quadratic on the full velocity, k from the horizontal motion" if summary["drag_k_per_m"] > 0
+            else "none (the vertical analysis has none): lines"}
 
 
 def distance_check(record, total_bouncing_time):
