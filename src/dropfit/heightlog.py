@@ -477,8 +477,6 @@ def trajectory_from_log(path, scale_m_per_px=None, gravity_m_s2=STANDARD_GRAVITY
                          f"(ball_radius_m) to find its centre")
     extra["height_reference"] = height_reference
     to_centre = HEIGHT_REFERENCES[height_reference] * (radius or 0.0)
-    if x_unit is not None and x_unit != "px":
-        x = x * LENGTH_UNITS_M[x_unit]
     if unit != "px":
         return make_trajectory(time, _checked(height * LENGTH_UNITS_M[unit] + to_centre, path, extra), path,
                                f"unit conversion from {unit}", extra, _horizontal_m(x, x_unit, extra, path))
@@ -502,10 +500,12 @@ def trajectory_from_log(path, scale_m_per_px=None, gravity_m_s2=STANDARD_GRAVITY
 
 
 def _horizontal_m(x, unit, attrs, path):
-    """A log's horizontal column in m (None without one): px through the scale's size (image columns point
-    right whichever way its rows point), other units already converted."""
+    """A log's horizontal column (in ``unit``) in m, None without one: px through the scale's size (image
+    columns point right whichever way its rows point)."""
+    if unit is None:
+        return None
     if unit != "px":
-        return x
+        return x * LENGTH_UNITS_M[unit]
     if "scale_m_per_px" not in attrs:
         raise InputError(f"{shown_path(path)}: column x_px needs a scale, but the heights are not in px; give x in "
                          f"m, cm or mm")
