@@ -159,6 +159,12 @@ def test_horizontal_drift_never_biases_e():
         assert moving.fit["restitution"]["e"] == plain.fit["restitution"]["e"]
     still = analysed(t, y, np.random.default_rng(1).normal(0, 1e-3, t.size)).impacts
     assert all(check.startswith("not tested: no horizontal motion") for check in still["angle_check"])
+    # x lost after 1 s: the impacts whose flights have it keep their numbers, the others say why not
+    partial = analysed(t, y, np.where(t < 1.0, x, np.nan)).impacts
+    assert partial["angle_check"].iloc[0] == "consistent: tangential velocity kept"
+    assert np.isfinite(partial["vx_in_se_m_s"].iloc[1]) and np.isnan(partial["vx_out_m_s"].iloc[1])
+    assert (partial["angle_check"].iloc[1:] == "not tested: too few x samples in the flights before and after").all()
+    assert "vx_in_m_s" not in analysed(t, y, np.full_like(t, np.nan)).impacts
 
 
 def write(path, text):
@@ -187,6 +193,7 @@ def test_height_log_horizontal_column(tmp_path):
     ("time_s,y_m,x_m\n0,1,abc\n", "x_m"),
     ("time_s,y_m,x_m\n0,1,inf\n", "x_m is infinite in data row 1"),
     ("time_s,y_m,x_px\n0,1,3\n", "column x_px needs a scale"),
+    ("time_s,y_mm,x_m\n0,1000,3000\n", "column x_m reaches 3e\\+03 m from its zero"),
 ])
 def test_bad_horizontal_column(tmp_path, text, message):
     """Each bad horizontal column gets one line naming the file."""

@@ -504,12 +504,15 @@ def _horizontal_m(x, unit, attrs, path):
     columns point right whichever way its rows point)."""
     if unit is None:
         return None
-    if unit != "px":
-        return x * LENGTH_UNITS_M[unit]
-    if "scale_m_per_px" not in attrs:
+    if unit == "px" and "scale_m_per_px" not in attrs:
         raise InputError(f"{shown_path(path)}: column x_px needs a scale, but the heights are not in px; give x in "
                          f"m, cm or mm")
-    return x * abs(attrs["scale_m_per_px"])
+    x_m = x * (abs(attrs["scale_m_per_px"]) if unit == "px" else LENGTH_UNITS_M[unit])
+    farthest = float(np.nanmax(np.abs(x_m), initial=0.0))
+    if farthest > MAX_ABS_HEIGHT_M:
+        raise InputError(f"{shown_path(path)}: column x_{unit} reaches {farthest:.3g} m from its zero (more than "
+                         f"{MAX_ABS_HEIGHT_M:g} m); check its unit in the column name, or subtract the offset")
+    return x_m
 
 
 def _checked(height_m, path, attrs):

@@ -144,7 +144,8 @@ def horizontal_flight(t, t_ref, u_ref, t_apex, y_apex, k=0.0, g=STANDARD_GRAVITY
     velocity = np.full_like(grid, u_ref)
     for _ in range(HORIZONTAL_PASSES):
         path = cumulative_trapezoid(np.hypot(velocity, vertical), grid, initial=0.0)
-        velocity = u_ref * np.exp(-k * (path - path[origin]))
+        with np.errstate(over="ignore", invalid="ignore"):  # an absurd speed overflows: the caller checks
+            velocity = u_ref * np.exp(-k * (path - path[origin]))
     displacement = cumulative_trapezoid(velocity, grid, initial=0.0)
     return np.interp(t, grid, displacement - displacement[origin]), np.interp(t, grid, velocity)
 

@@ -64,16 +64,18 @@ def fit_flight_x(t, x, apex, k, g, noise_correlation=0.0):
 
     Returns
     -------
-    dict
+    dict or None
         ``t_ref`` (s, the samples' mean time), ``u_ref`` (m/s) with ``u_ref_se``, ``x_ref`` (m), the
         ``motion`` function t ↦ (x in m, u in m/s), ``n_samples``, the residuals' ``noise_m`` and their sum
-        of squares ``rss_m2``.
+        of squares ``rss_m2``; None when the drag's shape overflows (a speed of thousands of m/s).
     """
     kept = np.ones(t.size, dtype=bool)
     t_ref = float(np.mean(t))
     u = float(np.polyfit(t - t_ref, x, 1)[0])
     for last in [False] * (SHAPE_PASSES + 1) + [True]:
         shape = horizontal_flight(t, t_ref, 1.0 if u == 0 else u, *apex, k, g)[0] / (1.0 if u == 0 else u)
+        if not np.all(np.isfinite(shape)):  # a speed no drag law holds (x in the wrong unit): not fitted
+            return None
         coefficients, covariance = linear_fit(np.column_stack([np.ones(kept.sum()), shape[kept]]), x[kept])
         residual = x - coefficients[0] - coefficients[1] * shape
         # off the residuals' median: a jump pulls the whole fit, and with it every residual, aside
@@ -199,21 +201,26 @@ def impact_angles(v_in, v_out, v_in_se, v_out_se, vx_pair, vx_covariance):
     p = np.array([v_in, v_out, *vx_pair])
     covariance = np.zeros((4, 4))
     covariance[0, 0], covariance[1, 1] = v_in_se**2, v_out_se**2
-    covariance[2:, 2:] = vx_covariance
+    # a flight without x leaves its velocity NaN: the quantities of the other flight keep their se
+    covariance[2:, 2:] = np.nan_to_num(vx_covariance)
     with np.errstate(divide="ignore", invalid="ignore"):
         values = quantities(p)
-        se = np.sqrt(np.clip(np.diag(propagate(jacobian(quantities, p), covariance)), 0.0, None))
+        # a NaN velocity's column is NaN: zeroed, and its quantities' se NaN as their values are
+        se = np.sqrt(np.clip(np.diag(propagate(np.nan_to_num(jacobian(quantities, p)), covariance)), 0.0, None))
+        se[~np.isfinite(values)] = np.nan
     return dict(zip(HORIZONTAL_COLUMNS, zip(values[:-1], se[:-1]))), float(se[-1])
 
 
 def angle_verdict(vx_in, vx_in_se, tan_out, e_tan_in, difference_se):
     """The seed's check of one impact in words: tan θ′ against e tan θ.
 
-    "not tested" when the ball had no horizontal motion to speak of (|vx_in| below
-    :data:`MOTION_IN_SE` standard errors); "consistent: tangential velocity kept" when tan θ′ − e tan θ
-    lies within :data:`ANGLE_CHECK_IN_SE` standard errors of 0; else the share of the tangential
-    velocity lost (friction or spin) or gained (spin).
+    "not tested" when a flight around the impact has too few x samples (NaN), or the ball had no
+    horizontal motion to speak of (|vx_in| below :data:`MOTION_IN_SE` standard errors); "consistent:
+    tangential velocity kept" when tan θ′ − e tan θ lies within :data:`ANGLE_CHECK_IN_SE` standard errors
+    of 0; else the share of the tangential velocity lost (friction or spin) or gained (spin).
     """
+    if np.isnan(tan_out) or np.isnan(e_tan_in):
+        return "not tested: too few x samples in the flights before and after"
     if not abs(vx_in) > MOTION_IN_SE * vx_in_se:
         return f"not tested: no horizontal motion resolved (vx_in = {vx_in:.3g} ± {vx_in_se:.2g} m/s)"
     difference = tan_out - e_tan_in
