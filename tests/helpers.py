@@ -415,4 +415,3 @@ def render_drop_clip(path, truth, fps, seed=0):
     camera = Camera(160, 220, fps, None, px_per_m=CLIP_PX_PER_M, image_row_of_floor_px=CLIP_FLOOR_ROW_PX,
                     noise_sigma=2.0)
     return render_video(truth, camera, Scene(), 1.7, seed, path)
-
