@@ -113,7 +113,7 @@ def record(truth: Truth, rate_hz: float, *, t_start_s: float | None = None, dura
            time_unit: str = "s", jitter_frac: float = 0.0, timestamps: str = "actual", drop_frac: float = 0.0,
            lost_frac: float = 0.0, lost_run: tuple[int, int] = (1, 1), noise_sd: float = 0.0,
            noise_lag1: float = 0.0, resolution: float | None = None, jumps: Jumps | None = None,
-           rng: np.random.Generator | int | None = 0, return_info: bool = False):
+           rng: np.random.Generator | int | None = 0, return_info: bool = False, horizontal: bool = False):
     """Sample a truth into a height log.
 
     Parameters
@@ -171,12 +171,19 @@ def record(truth: Truth, rate_hz: float, *, t_start_s: float | None = None, dura
         Random generator or seed (default 0: reproducible).
     return_info : bool
         Also return a :class:`RecordInfo`.
+    horizontal : bool
+        Also log the centre's horizontal position, column ``x_<unit>``: in
+        m, cm or mm from x = 0, or in px as the image column ``x px_per_m``
+        (axis right); its own Gaussian noise of ``noise_sd`` (drawn after
+        everything else, so the heights are those of the same log without
+        it), the same resolution, lost and dropped samples, no jumps.
 
     Returns
     -------
     pandas.DataFrame or (pandas.DataFrame, RecordInfo)
-        Columns ``time_s`` (or ``time_ms``) and ``y_<unit>``; lost samples
-        are NaN (written as empty cells by :func:`write_csv`).
+        Columns ``time_s`` (or ``time_ms``) and ``y_<unit>`` (and
+        ``x_<unit>``); lost samples are NaN (written as empty cells by
+        :func:`write_csv`).
     """
     if unit not in ("m", "cm", "mm", "px"):
         raise ValueError(f"unit must be m, cm, mm or px, got {unit!r}")
@@ -266,6 +273,14 @@ def record(truth: Truth, rate_hz: float, *, t_start_s: float | None = None, dura
     tname = "time_s" if time_unit == "s" else "time_ms"
     col = f"y_{unit}"
     log = pd.DataFrame({tname: t_col[kept], col: y[kept]})
+    if horizontal:
+        x = truth.x(t_true) * (px_per_m if unit == "px" else _UNIT_SCALE[unit])
+        if noise_sd > 0:
+            x = x + g.normal(0.0, noise_sd, n)
+        if resolution:
+            x = np.round(x / resolution) * resolution
+        x[is_lost] = np.nan
+        log[f"x_{unit}"] = x[kept]
     if not return_info:
         return log
     info = RecordInfo(t_true_s=t_true + time_offset_s, t_logged_s=t_logged, y_true=y_true, is_jump=is_jump,
@@ -273,7 +288,7 @@ def record(truth: Truth, rate_hz: float, *, t_start_s: float | None = None, dura
     return log, info
 
 
-def write_csv(log: pd.DataFrame, path, comments: list[str] | None = None) -> None:
+def write_csv(log: pd.DataFrame, path, comments: list[str] | None = None, float_format: str | None = None) -> None:
     """Write a log as CSV: optional ``# comment`` lines, a header, empty cells for NaN.
 
     Parameters
@@ -284,8 +299,11 @@ def write_csv(log: pd.DataFrame, path, comments: list[str] | None = None) -> Non
         Destination file.
     comments : list of str or None
         Lines written first, each prefixed with ``# ``.
+    float_format : str or None
+        printf-style format of the numbers (e.g. ``"%.6f"``); default the
+        shortest text that reads back to the same float.
     """
     with open(path, "w", newline="") as fh:
         for c in comments or []:
             fh.write(f"# {c}\n")
-        log.to_csv(fh, index=False, na_rep="", lineterminator="\n")
+        log.to_csv(fh, index=False, na_rep="", lineterminator="\n", float_format=float_format)

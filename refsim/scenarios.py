@@ -11,12 +11,14 @@ Gravity is 9.81 m/s^2 in all of them (``truth.g_m_s2``).
 
 from __future__ import annotations
 
-from .ball import simulate
+from .ball import Ball, simulate
+from .contact import LinearSpringDamper
 from .hand import Catch, HandPhase
 from .record import Jumps, record
 
 __all__ = ["tennis_100hz", "steel_500hz", "marble_paper_200fps_px", "tennis_bottom_2khz",
-           "table_tennis_caught_60fps_px", "SCENARIOS"]
+           "table_tennis_caught_60fps_px",
+           "seed_example3_oblique", "SMOOTH_TENNIS_BALL", "SCENARIOS"]
 
 
 def _finish(truth, log_info, offset):
@@ -98,10 +100,34 @@ def table_tennis_caught_60fps_px(seed: int = 0):
     return _finish(truth, res, 0.0)
 
 
+#: The tennis ball of the seed's Example 3 on a smooth floor: no friction, no drag, and a stiff linear
+#: contact of 0.1 ms calibrated to e = 0.745 at 4.2 m/s with
+#: ``calibrate_contact(ball, "linear", e_target=0.745, v_e_m_s=4.2, contact_time_s=1e-4, v_t_m_s=4.2)``
+#: (e = 0.74500 at 4.2 m/s, 0.74494 at 1.3 m/s: gravity acts during the contact), close to the
+#: seed's instantaneous bounce.
+SMOOTH_TENNIS_BALL = Ball("tennis_smooth_floor", 0.057, 0.0335, LinearSpringDamper(k=5.6778370e7, c=358.15592),
+                          drag_coefficient=0.0, friction_coefficient=0.0)
+
+
+def seed_example3_oblique(seed: int = 0):
+    """The seed's Example 3: a tennis ball rolls off a 0.9 m table at 3 m/s and bounces across a
+    smooth floor (e = 0.745: peaks 0.5, 0.277, 0.154, 0.085, 0.047 m; t_inf = 2.93 s; u t_inf = 8.79 m).
+
+    The ball's bottom leaves the table's edge (x = 0, 0.9 m above the floor) at t = 0 with u = 3 m/s and
+    no vertical speed; g = 9.81 m/s^2; at rest once it cannot rise 0.1 mm. Its centre is logged in x and y at 200 Hz in m from t = 0 to
+    0.5 s after the rest, 1 mm noise on each.
+    """
+    truth = simulate(SMOOTH_TENNIS_BALL, 0.9, u0_m_s=3.0, t_end_s=6.0, h_rest_m=1e-4)
+    res = record(truth, 200.0, t_start_s=0.0, duration_s=truth.rest_time_s + 0.5, point="centre", unit="m",
+                 noise_sd=1e-3, rng=seed, return_info=True, horizontal=True)
+    return _finish(truth, res, 0.0)
+
+
 SCENARIOS = {
     "tennis_100hz": tennis_100hz,
     "steel_500hz": steel_500hz,
     "marble_paper_200fps_px": marble_paper_200fps_px,
     "tennis_bottom_2khz": tennis_bottom_2khz,
     "table_tennis_caught_60fps_px": table_tennis_caught_60fps_px,
+    "seed_example3_oblique": seed_example3_oblique,
 }

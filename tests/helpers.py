@@ -160,6 +160,35 @@ def fit_numbers(fit):
     return {key: value for key, value in fit.items() if key not in PROVENANCE_FIELDS}
 
 
+#: The seed's Example 3 (impulse-momentum-impact.txt): a tennis ball (e = 0.745) rolls off a 0.9 m table at
+#: 3 m/s and bounces across a smooth floor; g = 9.81 m/s². Its printed results: the peaks (m), t∞ (s) and
+#: u t∞ (m).
+SEED_EXAMPLE3 = {"table_m": 0.9, "speed_m_s": 3.0, "e": 0.745, "g_m_s2": 9.81,
+                 "peaks_m": [0.5, 0.277, 0.154, 0.085, 0.047], "t_inf_s": 2.93, "distance_m": 8.79}
+
+
+def check_seed_example3(impacts, fit):
+    """Assert that an analysis of the seed's Example 3 (impacts table, fit result) reproduces its numbers:
+    the closed forms behind them (h_n = e^{2n} h₀, t∞ = t₀ (1 + e)/(1 − e), u t∞) round to the printed ones,
+    and the measured peaks, t∞, u t∞, u and the headline e lie within 3 standard errors of them; every
+    impact keeps its tangential velocity."""
+    example = SEED_EXAMPLE3
+    e, table, speed = example["e"], example["table_m"], example["speed_m_s"]
+    peaks = table * e ** (2 * np.arange(1, 6))
+    t_inf = np.sqrt(2 * table / example["g_m_s2"]) * (1 + e) / (1 - e)
+    assert np.round(peaks, 3).tolist() == example["peaks_m"]
+    assert round(t_inf, 2) == example["t_inf_s"] and round(speed * t_inf, 2) == example["distance_m"]
+    measured = impacts["h_after_m"].to_numpy()[:5]
+    assert np.all(np.abs(measured - peaks) < 3 * impacts["h_after_se_m"].to_numpy()[:5])
+    for found, truth in ((fit["theory"]["total_bouncing_time"]["predicted"], t_inf),
+                         (fit["theory"]["horizontal_distance"]["predicted"], speed * t_inf),
+                         (fit["theory"]["horizontal_distance"]["release_speed"], speed),
+                         (fit["restitution"]["e"], e)):
+        assert abs(found["value"] - truth) < 3 * found["se"], (found, truth)
+    assert fit["restitution"]["model"] == "constant"
+    assert (impacts["angle_check"] == "consistent: tangential velocity kept").all()
+
+
 #: Supersampling of drawn calibration images: marks land at fractional pixel positions, area-averaged.
 DRAW_SUPERSAMPLING = 8
 

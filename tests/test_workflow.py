@@ -17,7 +17,8 @@ import yaml
 from dropfit import analyse_recording
 from dropfit.settings import settings_from_config, stage_arguments
 
-from helpers import RECORDING_FILES, VIDEO_RECORDING_FILES, bouncing_ball, dropfit, write_no_bounce_log
+from helpers import (RECORDING_FILES, VIDEO_RECORDING_FILES, bouncing_ball, check_seed_example3, dropfit,
+                     write_no_bounce_log)
 
 REPO = Path(__file__).resolve().parents[1]
 #: Time limit of a whole workflow run (about 25 s on a laptop).
@@ -39,8 +40,8 @@ LOT = "tennis_lot_A"
 LOT_VERDICTS = {"A1": "pass", "A2": "pass", "A3": "pass", "A4": "fail", "A5": "indeterminate"}
 #: Samples that ``dropfit run`` repeats outside the workflow: a px log calibrated from gravity (drag held
 #: at the nominal prior), a log with its floor known (contact times, k, c) and a video (floor found in the
-#: image, scale from the diameter, frames guarded around the contacts).
-RUN_SAMPLES = ["steel_ball", "tennis_contact_2khz", "contact_2000fps_closeup"]
+#: image, scale from the diameter, frames guarded around the contacts) and the seed's Example 3 (x and y).
+RUN_SAMPLES = ["steel_ball", "tennis_contact_2khz", "contact_2000fps_closeup", "seed_example3_oblique"]
 #: A ball's mean rebound must match the mean true rebound of its drops to this (about 4 measurement se).
 REBOUND_TOL_M = 0.001  # m
 
@@ -193,6 +194,24 @@ def test_batch_with_bad_recordings(batch_run):
     check_lot_qc(root)
     bad_qc = (root / "results" / "batch" / "qc_bad.html").read_text(encoding="utf-8")
     assert all(f"<b>{sample_id}</b>" in bad_qc for sample_id in BAD_SAMPLES)
+
+
+@pytest.mark.slow
+def test_seed_example3_through_the_workflow(tmp_path):
+    """The seed's Example 3 alone through the workflow (about 30 s): rule synth_refsim remakes its
+    recording (x and y) as committed, and the results reproduce its peaks, t∞, u t∞ and e within their
+    standard errors; the report shows the path y(x)."""
+    root = copy_workflow(tmp_path)
+    shutil.copytree(REPO / "refsim", root / "refsim", ignore=shutil.ignore_patterns("__pycache__"))
+    recording = root / "data" / "synthetic" / "seed_example3_oblique.csv"
+    recording.unlink()
+    results = root / "results" / "seed_example3_oblique"
+    result = snakemake("--cores", "2", "results/seed_example3_oblique/fit.json",
+                       "results/seed_example3_oblique/report.html", cwd=root, timeout=RUN_TIMEOUT_S)
+    assert result.returncode == 0, result.stderr[-3000:]
+    assert recording.read_bytes() == (REPO / "data" / "synthetic" / "seed_example3_oblique.csv").read_bytes()
+    check_seed_example3(pd.read_csv(results / "impacts.csv"), json.loads((results / "fit.json").read_text("utf-8")))
+    assert 'alt="path y(x)"' in (results / "report.html").read_text("utf-8")
 
 
 def check_lot_qc(root):

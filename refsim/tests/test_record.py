@@ -94,3 +94,19 @@ def test_recording_continues_after_rest(truth):
     after = log[log["time_s"] > truth.t_settled_s]
     assert len(after) > 0
     assert np.abs(after["y_m"] - truth.y_rest_centre_m).max() < 6e-3  # only noise
+
+
+def test_horizontal_column():
+    """x logged beside y: the truth's x at the sample instants plus its own noise, in the height's unit (px
+    as columns), lost cells in both; the heights are those of the same log without x."""
+    moving = simulate("tennis", 1.0, g_m_s2=9.81, u0_m_s=2.0, t_end_s=2.0)
+    options = dict(t_start_s=0.0, duration_s=1.5, unit="mm", noise_sd=0.5, lost_frac=0.02, rng=4)
+    log, info = record(moving, 100, horizontal=True, return_info=True, **options)
+    assert list(log.columns) == ["time_s", "y_mm", "x_mm"]
+    assert log["y_mm"].equals(record(moving, 100, **options)["y_mm"])
+    error = log["x_mm"].to_numpy() - 1000 * moving.x(info.t_true_s)
+    assert np.nanstd(error) == pytest.approx(0.5, rel=0.15)
+    assert np.array_equal(np.isnan(log["x_mm"]), np.isnan(log["y_mm"])) and np.isnan(log["x_mm"]).any()
+    px = record(moving, 100, t_start_s=0.0, duration_s=1.5, unit="px", px_per_m=500, floor_row_px=900,
+                horizontal=True)
+    assert np.allclose(px["x_px"], 500 * moving.x(px["time_s"].to_numpy()))

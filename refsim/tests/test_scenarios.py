@@ -57,3 +57,14 @@ def test_marble_hand_release_moving():
     assert truth.v_release_m_s > 0.05
     assert truth.recording.is_jump.sum() >= 4
     assert log["y_px"].isna().any()
+
+
+def test_seed_example3_oblique():
+    """The seed's Example 3 on refsim: a smooth floor keeps u = 3 m/s, e = 0.745 within 1e-4 at every
+    impact, the peaks are e^{2n} h0 to 0.2 mm, and x is logged."""
+    log, truth = scenarios.seed_example3_oblique(0)
+    assert list(log.columns) == ["time_s", "y_m", "x_m"]
+    impacts = truth.impacts.iloc[:6]
+    assert np.allclose(impacts[["u_in_m_s", "u_out_m_s"]], 3.0, atol=1e-9)
+    assert np.allclose(impacts["e"], 0.745, atol=1e-4)
+    assert np.allclose(impacts["h_after_m"], 0.9 * 0.745 ** (2 * np.arange(1, 7)), atol=2e-4)

@@ -14,6 +14,7 @@ import numpy as np
 import pandas as pd
 
 from . import __version__
+from .analysis.horizontal import distance_check
 from .balls import ball_kind
 from .contact import fit_linear_contact
 from .errors import InputError
@@ -98,6 +99,8 @@ def fit_summary(summary, impacts, settings=None, ball_type=None):
     theory = theory_checks(constant["value"], constant["se"], summary["drop_height_m"], fall_time,
                            impacts["h_after_m"].to_numpy(), impacts["h_after_se_m"].to_numpy(),
                            summary["rest_time_s"] - summary["drop_apex_time_s"])
+    if summary.get("horizontal"):  # a 2-D recording: the distance travelled while bouncing, u t∞
+        theory["horizontal_distance"] = distance_check(summary["horizontal"], theory["total_bouncing_time"])
     itf = _itf(ball_type, summary, impacts, models, used, settings.itf_drop_height_m, settings.itf_rebound_min_m,
                settings.itf_rebound_max_m, settings.itf_drop_height_tolerance_m)
     resolvable = impacts["contact_resolvable"].astype(bool).to_numpy()

@@ -178,19 +178,22 @@ def _check_header(path, header, rows):
                          f"between the columns")
 
 
-def read_height_log(path):
+def read_height_log(path, horizontal=False):
     """Read and validate a height log.
 
     Parameters
     ----------
     path : str or pathlib.Path
         The CSV file.
+    horizontal : bool
+        Also return the optional horizontal column (``x_m``, ``x_cm``, ``x_mm`` or ``x_px``).
 
     Returns
     -------
     (numpy.ndarray, numpy.ndarray, str)
         Time in s, height in the log's unit (NaN for dropouts), and that unit
-        (``m``, ``cm``, ``mm`` or ``px``).
+        (``m``, ``cm``, ``mm`` or ``px``); with ``horizontal``, also the horizontal position in its unit
+        (NaN where empty) and that unit, (None, None) for a log without one.
 
     Raises
     ------
@@ -247,7 +250,15 @@ def read_height_log(path):
         raise InputError(f"{name}: column {height_column} is infinite in data row {row + 1}")
     if not np.any(np.isfinite(height)):
         raise InputError(f"{name}: column {height_column} has no valid value (all empty or NaN)")
-    return time, height, height_unit
+    if not horizontal:
+        return time, height, height_unit
+    if not any(column.startswith("x_") for column in table.columns):
+        return time, height, height_unit, None, None
+    x_column, x_unit = _column_unit(list(table.columns), "x", {**LENGTH_UNITS_M, "px": None}, path)
+    x = _numeric(table[x_column], x_column, path)
+    if np.any(np.isinf(x)):
+        raise InputError(f"{name}: column {x_column} is infinite in data row {int(np.flatnonzero(np.isinf(x))[0]) + 1}")
+    return time, height, height_unit, x, x_unit
 
 
 #: What pandas' CSV reader takes for a missing value by default: a dropout.
@@ -283,7 +294,7 @@ def _numeric(column, name, path):
     return values
 
 
-def make_trajectory(time_s, height_m, source, calibration, attrs=None):
+def make_trajectory(time_s, height_m, source, calibration, attrs=None, x_m=None):
     """Build the trajectory dataset of the design brief.
 
     Parameters
@@ -298,11 +309,14 @@ def make_trajectory(time_s, height_m, source, calibration, attrs=None):
         How heights were brought to metres.
     attrs : dict, optional
         More attributes (ball radius and mass in m and kg, scale in m/px, sample id, ...).
+    x_m : numpy.ndarray, optional
+        Horizontal position of the centre in m (NaN where not measured), for a 2-D recording.
 
     Returns
     -------
     xarray.Dataset
-        Dimension ``time`` (s); variables ``y`` (m) and ``quality`` (0 ok, 1 dropout).
+        Dimension ``time`` (s); variables ``y`` (m) and ``quality`` (0 ok, 1 dropout), and ``x`` (m)
+        when given.
     """
     quality = np.where(np.isfinite(height_m), QUALITY_OK, QUALITY_DROPOUT).astype("int8")
     dataset = xr.Dataset(
@@ -316,6 +330,8 @@ def make_trajectory(time_s, height_m, source, calibration, attrs=None):
                "n_dropouts": int(np.count_nonzero(quality))},
     )
     dataset.attrs.update({key: value for key, value in (attrs or {}).items() if value is not None})
+    if x_m is not None:
+        dataset["x"] = ("time", np.asarray(x_m, dtype=float), {"units": "m", "long_name": "horizontal position"})
     return dataset
 
 
@@ -473,7 +489,7 @@ def _trajectory_of(path, imported, scale_m_per_px, gravity_m_s2, attrs, height_r
     to_centre = HEIGHT_REFERENCES[height_reference] * (radius or 0.0)
     if unit != "px":
         return make_trajectory(time, _checked(height * LENGTH_UNITS_M[unit] + to_centre, path, extra), path,
-                               f"unit conversion from {unit}", extra)
+                               f"unit conversion from {unit}", extra, _horizontal_m(imported.x, imported.unit, extra, path))
     if scale_m_per_px is not None:
         if scale_m_per_px == 0:
             raise InputError(f"{shown_path(path)}: scale_m_per_px is 0; give metres per pixel (negative for image rows)")
@@ -484,12 +500,29 @@ def _trajectory_of(path, imported, scale_m_per_px, gravity_m_s2, attrs, height_r
             raise InputError(f"{shown_path(path)}: with scale_m_per_px = {scale_m_per_px:g} the ball bounces "
                              f"downwards: if the pixel axis points down (image rows), give a negative scale")
         extra["scale_m_per_px"] = float(scale_m_per_px)
-        return make_trajectory(time, _checked(heights + to_centre, path, extra), path, "given scale in m/px", extra)
+        return make_trajectory(time, _checked(heights + to_centre, path, extra), path, "given scale in m/px", extra,
+                               _horizontal_m(imported.x, imported.unit, extra, path))
     scale, scale_se, details = scale_from_gravity(time, height, gravity_m_s2, str(path), *nominal_drag_of(extra))
     extra.update(details, scale_m_per_px=float(scale), scale_se_m_per_px=float(scale_se),
                  scale_rel_se=float(scale_se / abs(scale)), scale_source="gravity")
     return make_trajectory(time, _checked(height * scale + to_centre, path, extra), path,
-                           "scale from gravity (flight curvature)", extra)
+                           "scale from gravity (flight curvature)", extra, _horizontal_m(imported.x, imported.unit, extra, path))
+
+
+def _horizontal_m(x, unit, attrs, path):
+    """A log's horizontal column (in ``unit``) in m, None without one: px through the scale's size (image
+    columns point right whichever way its rows point)."""
+    if x is None:
+        return None
+    if unit == "px" and "scale_m_per_px" not in attrs:
+        raise InputError(f"{shown_path(path)}: column x_px needs a scale, but the heights are not in px; give x in "
+                         f"m, cm or mm")
+    x_m = x * (abs(attrs["scale_m_per_px"]) if unit == "px" else LENGTH_UNITS_M[unit])
+    farthest = float(np.nanmax(np.abs(x_m), initial=0.0))
+    if farthest > MAX_ABS_HEIGHT_M:
+        raise InputError(f"{shown_path(path)}: column x_{unit} reaches {farthest:.3g} m from its zero (more than "
+                         f"{MAX_ABS_HEIGHT_M:g} m); check its unit in the column name, or subtract the offset")
+    return x_m
 
 
 def _checked(height_m, path, attrs):

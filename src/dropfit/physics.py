@@ -103,6 +103,53 @@ def flight_velocity(t, t_apex, y_apex, k=0.0, g=STANDARD_GRAVITY_M_S2):
     return np.where(dt < 0, v_terminal * np.tan(np.minimum(x, np.pi / 2)), -v_terminal * np.tanh(x))
 
 
+#: Steps of the grid on which :func:`horizontal_flight` integrates the drag (trapezoids).
+HORIZONTAL_GRID_STEPS = 2000
+#: Fixed-point passes of :func:`horizontal_flight` (u in |V| taken from the pass before).
+HORIZONTAL_PASSES = 4
+
+
+def horizontal_flight(t, t_ref, u_ref, t_apex, y_apex, k=0.0, g=STANDARD_GRAVITY_M_S2):
+    """Horizontal displacement in m and velocity in m/s of a ball in flight at times ``t`` (s), with
+    quadratic drag on the full velocity: du/dt = −k u |V|, |V| = √(u² + v²), v the vertical flight's
+    velocity (:func:`flight_velocity` of the apex ``t_apex``, ``y_apex``, with the same k, 1/m, and g,
+    m/s²).
+
+    u = u_ref exp(−k S) with the path length S = ∫|V| dt from ``t_ref``, iterated
+    :data:`HORIZONTAL_PASSES` times from |V| with u = u_ref (each pass shrinks the error by a factor
+    k|V|τ, a few % for a ball in air), and x − x(t_ref) = ∫u dt; the integrals by trapezoids on
+    :data:`HORIZONTAL_GRID_STEPS` steps.
+
+    Parameters
+    ----------
+    t : array_like
+        Times in s.
+    t_ref, u_ref : float
+        The reference time (s) and the horizontal velocity then (m/s); the displacement is from
+        the position at ``t_ref``.
+
+    Returns
+    -------
+    (numpy.ndarray, numpy.ndarray)
+        x(t) − x(t_ref) in m and u(t) in m/s; without drag u_ref (t − t_ref) and u_ref.
+    """
+    from scipy.integrate import cumulative_trapezoid
+
+    t = np.asarray(t, dtype=float)
+    if k == 0.0 or u_ref == 0.0 or t.size == 0:
+        return u_ref * (t - t_ref), np.full_like(t, u_ref)
+    grid = np.union1d(np.linspace(min(t.min(), t_ref), max(t.max(), t_ref), HORIZONTAL_GRID_STEPS + 1), [t_ref])
+    origin = int(np.searchsorted(grid, t_ref))
+    vertical = flight_velocity(grid, t_apex, y_apex, k, g)
+    velocity = np.full_like(grid, u_ref)
+    for _ in range(HORIZONTAL_PASSES):
+        path = cumulative_trapezoid(np.hypot(velocity, vertical), grid, initial=0.0)
+        with np.errstate(over="ignore", invalid="ignore"):  # an absurd speed overflows: the caller checks
+            velocity = u_ref * np.exp(-k * (path - path[origin]))
+    displacement = cumulative_trapezoid(velocity, grid, initial=0.0)
+    return np.interp(t, grid, displacement - displacement[origin]), np.interp(t, grid, velocity)
+
+
 def speed_below_apex(drop_m, k=0.0, g=STANDARD_GRAVITY_M_S2, rising=False):
     """Speed in m/s of a ball ``drop_m`` (m) below the apex of its flight.
 

@@ -24,6 +24,7 @@ import numpy as np
 from . import __version__
 from .video import limits as video_limits
 from .analysis import analyse_bounces
+from .analysis.horizontal import add_horizontal
 from .balls import ball_kind
 from .errors import InputError, shown_path
 from .files import sha256_of
@@ -221,6 +222,8 @@ def analyse_trajectory(trajectory, settings=None, source=None):
     analysis = analyse_bounces(time, trajectory["y"].values, **options)
     if "video" in attrs:  # a video's later bounces may be too briefly filmed to resolve
         analysis = video_limits.select_resolved_impacts(analysis, attrs["video"], interval)
+    if "x" in trajectory:  # a 2-D recording: the tangential velocities and angles (e stays the vertical fit's)
+        analysis = add_horizontal(analysis, time, trajectory["x"].values, options["noise_correlation"])
     record = {key: plain(value) for key, value in options.items() if key != "source"}
     summary = dict(analysis.summary, analysis_options=record, gravity=settings.site_gravity().record())
     return dataclasses.replace(analysis, summary=summary)

@@ -565,6 +565,58 @@ def _section_impacts(impacts):
                    "flight-time ratio (1)", "h_after ± se (m)"], rows)
 
 
+def _path_png(trajectory, flights, analysis, fit):
+    """The path y(x) of a 2-D recording (PNG bytes): the samples, the fitted flights drawn along the measured
+    x, and where the seed's u t∞ ends the bouncing, measured from the release."""
+    t, x = trajectory["time"].values, trajectory["x"].values
+    contact = analysis["contact_height_m"]
+    measured = np.isfinite(x) & np.isfinite(trajectory["y"].values)
+    curves, _, _ = _flight_curves(trajectory, flights, analysis)
+    fig, ax = plt.subplots(figsize=(9.5, 3.6), layout="constrained")
+    ax.plot(x[measured], trajectory["y"].values[measured] - contact, ".", ms=2.5, color="0.35", label="measured")
+    for index, (grid_t, grid_y) in enumerate(curves):
+        ax.plot(np.interp(grid_t, t[measured], x[measured]), grid_y - contact, "-", lw=1.2, color="tab:blue",
+                label="fitted flights (along the measured x)" if index == 0 else None)
+    distance = fit["theory"].get("horizontal_distance")
+    if distance and not _missing(distance["predicted"]["value"]):
+        release = np.interp(analysis["drop_apex_time_s"], t[measured], x[measured])
+        ax.axvline(release + distance["predicted"]["value"], color="tab:orange", ls="--", lw=1,
+                   label=f"u t∞ after the release: {format_pm(distance['predicted']['value'], distance['predicted']['se'])} m")
+    ax.axhline(0.0, color="0.6", lw=0.8)
+    ax.set_xlabel("horizontal position x (m)")
+    ax.set_ylabel("height above contact height (m)")
+    ax.set_title("path y(x)", loc="left")
+    ax.legend(loc="upper right", fontsize=8)
+    return _png_bytes(fig)
+
+
+def _section_oblique(fit, impacts, path_png):
+    """Oblique bounces: each impact's tangential velocities, angles above the floor and the check
+    tan θ′ = e tan θ, the distance u t∞ and the path y(x)."""
+    rows = [[(_text(row.impact), True),
+             (escape(format_pm(row.vx_in_m_s, row.vx_in_se_m_s)), True),
+             (escape(format_pm(row.vx_out_m_s, row.vx_out_se_m_s)), True),
+             (escape(format_pm(row.tangential_ratio, row.tangential_ratio_se)), True),
+             (escape(format_pm(row.theta_in_deg, row.theta_in_se_deg)), True),
+             (escape(format_pm(row.theta_out_deg, row.theta_out_se_deg)), True),
+             (escape(format_pm(row.tan_theta_out, row.tan_theta_out_se)), True),
+             (escape(format_pm(row.e_tan_theta_in, row.e_tan_theta_in_se)), True),
+             (_text(row.angle_check), False)]
+            for row in impacts.itertuples(index=False)]
+    table = _table(["impact", "vx_in (m/s)", "vx_out (m/s)", "vx_out / vx_in (1)", "θ in (°)", "θ′ out (°)",
+                    "tan θ′ (1)", "e tan θ (1)", "check"], rows)
+    distance = fit["theory"].get("horizontal_distance") or {}
+    travel = _definitions([
+        ("Horizontal speed at the release u", escape(_estimate(distance.get("release_speed"), "m/s"))),
+        ("Distance while bouncing u t∞, predicted", escape(_estimate(distance.get("predicted"), "m"))),
+        ("Distance from the release to rest, measured", f"{_num(distance.get('measured_m'), '.3f')} m"),
+        ("Note", _text(distance.get("note"))),
+    ]) if distance else ""
+    return ("<p>Angles of the velocity above the floor; on a smooth floor the tangential velocity is kept and "
+            "tan θ′ = e tan θ (e from the normal components alone).</p>\n" + table + "\n" + travel
+            + ("\n" + _png_img(path_png, "path y(x)") if path_png else ""))
+
+
 def _section_notes(fit):
     """The samples left out (the hand's, tracking jumps, outliers of the fit) and every note of the analysis."""
     data = fit.get("data") or {}
@@ -581,7 +633,7 @@ def _section_notes(fit):
     return counts + "\n" + listed
 
 
-def recording_report_html(trajectory, flights, impacts, fit, png, contact_sheet_png=None):
+def recording_report_html(trajectory, flights, impacts, fit, png, contact_sheet_png=None, path_png=None):
     """The self-contained per-recording HTML report.
 
     Parameters
@@ -596,6 +648,8 @@ def recording_report_html(trajectory, flights, impacts, fit, png, contact_sheet_
         The report figure, embedded as base64.
     contact_sheet_png : bytes, optional
         A video's contact sheet (PNG), embedded under the recording.
+    path_png : bytes, optional
+        A 2-D recording's path y(x) (PNG), embedded in its section on oblique bounces.
 
     Returns
     -------
@@ -613,6 +667,8 @@ def recording_report_html(trajectory, flights, impacts, fit, png, contact_sheet_
         ("Contact time", _section_contact(fit, impacts)),
         ("Data used and notes", _section_notes(fit)),
         ("Impacts table", _section_impacts(impacts)),
+    ] + ([("Oblique bounces (2-D motion)", _section_oblique(fit, impacts, path_png))]
+         if "vx_in_m_s" in impacts else []) + [
         ("Figure", _png_img(png, f"dropfit figure for {sample_id}")),
     ]
     return _html_page(f"dropfit report: {sample_id}",
@@ -641,10 +697,11 @@ def write_recording_report(trajectory, flights, impacts, analysis, fit, html_pat
         A video's contact sheet (PNG, :func:`dropfit.stages.overlay`), shown in the report.
     """
     png = _figure_png(trajectory, flights, impacts, analysis, fit)
+    path_png = _path_png(trajectory, flights, analysis, fit) if "x" in trajectory and "vx_in_m_s" in impacts else None
     with atomic_output(figure_path) as tmp:
         tmp.write_bytes(png)
     with atomic_output(html_path) as tmp:
-        tmp.write_text(recording_report_html(trajectory, flights, impacts, fit, png, contact_sheet_png),
+        tmp.write_text(recording_report_html(trajectory, flights, impacts, fit, png, contact_sheet_png, path_png),
                        encoding="utf-8")
 
 

@@ -41,6 +41,9 @@ from dropfit.video_synth import default_clips
 #: Every synthetic recording the synth jobs make; a scenario with n drops makes n of them.
 synthetic_recordings = list(scenario_recordings(scenarios["scenarios"]))
 
+#: Synthetic recordings made by the independent simulator refsim (rule synth_refsim; refsim.scenarios).
+refsim_recordings = ["seed_example3_oblique"]
+
 #: Where rule synth_video renders the default synthetic videos.
 VIDEO_DIR = "results/video"
 video_clips = list(default_clips())
@@ -62,6 +65,7 @@ log_samples = [sample for sample in samples.index if sample not in video_samples
 wildcard_constraints:
     sample=_alternatives(samples.index),
     scenario=_alternatives(synthetic_recordings),
+    refsim_scenario=_alternatives(refsim_recordings),
     batch=_alternatives(samples["batch"].unique()),
     clip=_alternatives(video_clips),
 
@@ -118,7 +122,7 @@ def measure_input(wildcards):
     ``dropfit measure`` writes the failure record that names the missing file.
     """
     path = recording_path(wildcards)
-    synthetic = {f"data/synthetic/{name}.csv" for name in synthetic_recordings}
+    synthetic = {f"data/synthetic/{name}.csv" for name in synthetic_recordings + refsim_recordings}
     synthetic |= {f"{VIDEO_DIR}/{clip}.avi" for clip in video_clips}
     if os.path.exists(path) or os.path.normpath(path) in synthetic:
         return path

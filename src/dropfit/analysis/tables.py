@@ -7,8 +7,8 @@ from ..restitution import Z95
 
 def se_column_name(column, tag="se"):
     """Name of a column's standard error (or other ``tag``) that keeps the unit suffix last:
-    v_in_m_s → v_in_se_m_s, t_contact_ms → t_contact_se_ms."""
-    for unit in ("_m_s", "_ms", "_s", "_m"):
+    v_in_m_s → v_in_se_m_s, t_contact_ms → t_contact_se_ms, theta_in_deg → theta_in_se_deg."""
+    for unit in ("_m_s", "_ms", "_s", "_m", "_deg"):
         if column.endswith(unit):
             return column[: -len(unit)] + f"_{tag}" + unit
     return column + f"_{tag}"

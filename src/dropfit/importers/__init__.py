@@ -13,6 +13,8 @@ import io
 import zipfile
 from pathlib import Path
 
+import numpy as np
+
 from ..errors import InputError, shown_path
 from .base import LENGTH_UNITS_M, ImportedTrack, ImportOptions, checked_track, drop_repeated_positions
 
@@ -127,10 +129,22 @@ def _is_native(lines):
 
 
 def _native(path):
-    from ..heightlog import read_height_log
+    from ..heightlog import MAX_ABS_HEIGHT_M, read_height_log
 
-    time, height, unit = read_height_log(path)
-    return ImportedTrack(time, height, unit, "dropfit", f"read {shown_path(path)} as a dropfit height log [{unit}]")
+    time, height, unit, x, x_unit = read_height_log(path, horizontal=True)
+    if x is not None and x_unit != unit:
+        if x_unit == "px":
+            raise InputError(f"{shown_path(path)}: column x_px needs a scale, but the heights are not in px; give x in "
+                             f"m, cm or mm")
+        if unit == "px":
+            raise InputError(f"{shown_path(path)}: the heights are in px but x in {x_unit}; give x in px too")
+        farthest = float(np.nanmax(np.abs(x), initial=0.0)) * LENGTH_UNITS_M[x_unit]
+        if farthest > MAX_ABS_HEIGHT_M:
+            raise InputError(f"{shown_path(path)}: column x_{x_unit} reaches {farthest:.3g} m from its zero (more "
+                             f"than {MAX_ABS_HEIGHT_M:g} m); check its unit in the column name, or subtract the offset")
+        x = x * LENGTH_UNITS_M[x_unit] / LENGTH_UNITS_M[unit]
+    return ImportedTrack(time, height, unit, "dropfit", f"read {shown_path(path)} as a dropfit height log [{unit}]",
+                         x=x)
 
 
 def _finished(path, track):
