@@ -106,11 +106,11 @@ def fit_summary(summary, impacts, settings=None, ball_type=None):
         "k_per_m": estimate(summary["drag_k_per_m"], summary["drag_k_se_per_m"], "1/m"),
         "bic_no_drag": summary["bic_no_drag"],
         "bic_quadratic_drag": summary["bic_quadratic_drag"],
-        "why": "chosen by the Bayesian information criterion (lower wins)"
-        if np.isfinite(summary["bic_quadratic_drag"]) and np.isfinite(summary["bic_no_drag"])
-        else "fixed by the --drag option",
+        "why": summary.get("drag_why") or ("chosen by the Bayesian information criterion (lower wins)"
+                                           if np.isfinite(summary["bic_quadratic_drag"]) and np.isfinite(summary["bic_no_drag"])
+                                           else "fixed by the --drag option"),
     }
-    if summary["drag_model"] == "nominal":
+    if summary["drag_model"] == "nominal" and not summary.get("drag_why"):
         kind = ball_kind(attrs.get("ball_type"))
         drag["note"] = (f"k is not fitted freely: held at that of a smooth {kind.name} ball of this size and mass "
                         f"(C_d = {kind.drag_coefficient:g} ± {kind.drag_coefficient_se:g}) combined with what the "

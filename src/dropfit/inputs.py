@@ -174,6 +174,7 @@ def read_fit(path):
 
 def read_report_analysis(path):
     """The analysis summary as the report reads it (contact height, drag, gravity, noise)."""
-    keys = dict.fromkeys(("contact_height_m", "drag_k_per_m", "gravity_m_s2", "noise_m"), "real")
+    keys = dict(dict.fromkeys(("contact_height_m", "drag_k_per_m", "gravity_m_s2"), "real"),
+                noise_m="number")  # a sound recording has no height samples: its noise is null
     return check_keys(read_json(path, "analysis summary (analysis.json) written by dropfit analyse"), keys, path,
                       "an analysis summary written by dropfit analyse")

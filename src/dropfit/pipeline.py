@@ -24,6 +24,7 @@ import numpy as np
 from . import __version__
 from .video import limits as video_limits
 from .analysis import analyse_bounces
+from .audio.recording import analyse_sound, is_sound_dataset, is_sound_recording, sound_trajectory
 from .balls import ball_kind
 from .errors import InputError, shown_path
 from .files import sha256_of
@@ -36,7 +37,7 @@ from .videolog import VIDEO_SUFFIXES, is_video, scale_targets_of, trajectory_fro
 
 #: Settings that apply to measuring a recording, not to an already measured trajectory.
 MEASURE_ONLY_SETTINGS = ("scale_m_per_px", "ruler_tick_m", "scale_points_px", "scale_distance_m", "marker_size_m",
-                         "board_square_m", "board_inner_corners", "capture_fps")
+                         "board_square_m", "board_inner_corners", "capture_fps", "release_time_s")
 
 
 def track_recording(path, settings=None):
@@ -69,12 +70,15 @@ def track_recording(path, settings=None):
 
 
 def measure_recording(path, ball=None, settings=None, *, sample_id=None, tracked=None):
-    """Height log or video → trajectory (heights in m, up; dropouts flagged), without writing a file.
+    """Height log or video → trajectory (heights in m, up; dropouts flagged), without writing a file; a
+    sound file or a table of impact times → the impact times (:func:`dropfit.audio.recording.sound_trajectory`).
 
     Parameters
     ----------
     path : str or pathlib.Path
-        A height log (CSV) or a video (:data:`dropfit.videolog.VIDEO_SUFFIXES`).
+        A height log (CSV), a video (:data:`dropfit.videolog.VIDEO_SUFFIXES`), a sound file
+        (:data:`dropfit.audio.decode.AUDIO_SUFFIXES`) or a table of impact times
+        (:func:`dropfit.audio.tables.is_impact_table`).
     ball : dropfit.settings.Ball, optional
         The ball (radius in m, mass in kg, kind); default: nothing known.
     settings : dropfit.settings.Settings, optional
@@ -108,6 +112,8 @@ def measure_recording(path, ball=None, settings=None, *, sample_id=None, tracked
         trajectory = trajectory_from_video(path, ball.radius_m, scale and abs(scale), settings.capture_fps,
                                            gravity.value_m_s2, attrs, settings.ruler_tick_m,
                                            scale_targets_of(settings), tracked)
+    elif is_sound_recording(path):
+        trajectory = sound_trajectory(path, attrs, settings.release_time_s)
     else:
         trajectory = trajectory_from_log(path, scale_m_per_px=scale, gravity_m_s2=gravity.value_m_s2, attrs=attrs,
                                          height_reference=settings.height_reference)
@@ -206,6 +212,12 @@ def analyse_trajectory(trajectory, settings=None, source=None):
     attrs = dict(trajectory.attrs)
     if source is not None:
         attrs.setdefault("source", str(source))
+    if is_sound_dataset(trajectory):
+        analysis = analyse_sound(trajectory.assign_attrs(attrs), settings.site_gravity(), settings.drag,
+                                 nominal_drag_of(attrs))
+        record = {"drag": settings.drag, "nominal_drag_k_per_m": analysis.summary["drag_k_per_m"]}
+        summary = dict(analysis.summary, analysis_options=record, gravity=settings.site_gravity().record())
+        return dataclasses.replace(analysis, summary=summary)
     time = trajectory["time"].values
     interval = float(np.median(np.diff(time))) if time.size > 1 else 0.0
     options = analysis_options(attrs, settings, interval)

@@ -143,6 +143,9 @@ OPTIONS = {option.name: option for option in (
            _MEASURE, choices=("centre", "bottom", "top"), text=True, column=True),
     Option("capture_fps", "capture rate in frames/s of a slow-motion video whose file states another rate",
            _MEASURE, "the capture rate in frames/s", 0.0, math.inf, False, column=True),
+    Option("release_time_s", "audio: time in s on the recording's clock at which the ball was released at rest "
+           "(gives the drop height, the first impact's e and the total bouncing time)", _MEASURE,
+           "the release time in s from the start of the recording", 0.0, column=True),
     Option("gravity_m_s2", "gravity at the site in m/s² (wins over --latitude-deg); default: not known, "
            "standard gravity with the ±0.3 % spread over the Earth", _SITE, "gravity in m/s² (9.80665 on Earth)",
            0.0, 100.0, False, config=("gravity_m_s2",), column=True),
@@ -270,6 +273,9 @@ class Settings:
     capture_fps : float, optional
         Capture rate in frames/s of a slow-motion video whose file states another rate. Default
         None: the file's rate, checked against gravity where a scale allows.
+    release_time_s : float, optional
+        Audio: when the ball was let go at rest, in s on the recording's clock (taken as exact). Default
+        None: the fall is not heard, so the drop height and the first impact's e are not measured.
     gravity_m_s2 : float, optional
         g at the site in m/s², taken as exact. It wins over ``latitude_deg``. Default None: see
         :meth:`site_gravity`.
@@ -304,6 +310,7 @@ class Settings:
     floor_m: float | None = None
     height_reference: str = "centre"
     capture_fps: float | None = None
+    release_time_s: float | None = None
     gravity_m_s2: float | None = None
     latitude_deg: float | None = None
     altitude_m: float | None = None

@@ -44,6 +44,8 @@ synthetic_recordings = list(scenario_recordings(scenarios["scenarios"]))
 #: Where rule synth_video renders the default synthetic videos.
 VIDEO_DIR = "results/video"
 video_clips = list(default_clips())
+#: Where rule synth_audio renders the synthetic drop-test sound.
+AUDIO_DIR = "results/audio"
 
 
 def _alternatives(names):
@@ -119,7 +121,7 @@ def measure_input(wildcards):
     """
     path = recording_path(wildcards)
     synthetic = {f"data/synthetic/{name}.csv" for name in synthetic_recordings}
-    synthetic |= {f"{VIDEO_DIR}/{clip}.avi" for clip in video_clips}
+    synthetic |= {f"{VIDEO_DIR}/{clip}.avi" for clip in video_clips} | {f"{AUDIO_DIR}/table_tennis_40cm.wav"}
     if os.path.exists(path) or os.path.normpath(path) in synthetic:
         return path
     return []
