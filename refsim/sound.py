@@ -189,7 +189,7 @@ def write_sound(sound, path, subtype=None):
 
 #: The bundled synthetic recording of the workflow: a table-tennis ball dropped from 40 cm beside a phone
 #: in a room, with an echo, a few double clicks, some hum and a microphone that clips on the first click.
-DEFAULT_RECORDING = {"ball": "table_tennis", "drop_height_m": 0.4, "t_end_s": 3.0,
+DEFAULT_RECORDING = {"ball": "table_tennis", "drop_height_m": 0.4, "t_end_s": 6.0,
                      "options": {"rate_hz": 44100.0, "peak_level": 0.9, "noise_level": 0.003, "hum_level": 0.01,
                                  "double_click_probability": 0.2, "clip_level": 0.6}}
 

@@ -50,13 +50,15 @@ def _parser():
 
     run = stage("run", "one recording → every file the workflow writes for it (trajectory.nc, impacts.csv, "
                        "flights.csv, analysis.json, fit.json, report.html, report.png) in --out; prints the headline")
-    run.add_argument("recording", help="height log CSV, or a video (.avi, .mp4, .mov, .mkv, .m4v)")
+    run.add_argument("recording", help="height log CSV, a video (.avi, .mp4, .mov, .mkv, .m4v), the sound of the "
+                                       "bounces (.wav, .flac, .ogg, .m4a, .aac, .mp3) or a CSV of impact times")
     run.add_argument("--out", required=True, help="directory to write the files into")
     run.add_argument("--sample-id")
     _add_options(run, "run")
 
-    measure = stage("measure", "height log (CSV) or video → trajectory (NetCDF, m)")
-    measure.add_argument("log", help="height log CSV, or a video (.avi, .mp4, .mov, .mkv, .m4v)")
+    measure = stage("measure", "height log (CSV) or video → trajectory (NetCDF, m); sound → impact times (NetCDF, s)")
+    measure.add_argument("log", help="height log CSV, a video (.avi, .mp4, .mov, .mkv, .m4v), the sound of the "
+                                     "bounces (.wav, .flac, .ogg, .m4a, .aac, .mp3) or a CSV of impact times")
     measure.add_argument("--out", required=True, help="trajectory NetCDF to write")
     measure.add_argument("--sample-id")
     measure.add_argument("--track", help="a video's tracked table to write (CSV: every frame's ball in px and its "

@@ -17,8 +17,9 @@ The steps follow the signal:
    much louder one is that click's pre-echo (lossy codecs) and is dropped (:func:`distinct_clicks`);
 4. :func:`select_bounces` — the longest chain of candidates whose successive intervals shrink as a
    bouncing ball's do (each interval 0.3-1.15 of the one before, dynamic programming over pairs),
-   the earlier candidates preferred between chains of equal length (a room echo repeats the clicks'
-   intervals a fixed delay later): echoes, talk and knocks fall out;
+   between chains of equal length, those of candidates heard first after a silence (a room echo
+   repeats the clicks' intervals a fixed delay later) and louder (:func:`click_preference`): echoes,
+   talk and knocks fall out;
 5. :func:`timing_jitter` — the scatter of the intervals about a smoothly shrinking sequence, the part
    of the timing error that the noise alone does not explain (clicks of different shapes), added to
    every onset.
@@ -54,6 +55,8 @@ MIN_SNR = 5.0
 #: up to a tenth of a click over the milliseconds before it), low enough to stay on the first rise of a
 #: click that rises in steps.
 CROSSING = 0.3
+#: ...and at least this many noise spreads above the level before it.
+NOISE_MARGIN = 4.0
 #: Rises closer than this to the previous one are the same click (a double click, a rattle), s.
 MERGE_S = 2.0e-3
 #: A rise followed within this time (s) by one this many times louder is part of that click (pre-echo).
@@ -62,6 +65,9 @@ PRE_ECHO_RATIO = 3.0
 #: Each interval of a bouncing ball is this fraction of the one before (e² > 0.09 down to slightly
 #: more than 1 for timing noise on the shortest intervals).
 INTERVAL_RATIO = (0.3, 1.15)
+#: A room's echoes arrive within this time after their click, s (a path 5 m longer; a bounce interval is
+#: longer than this until the last, faint bounces).
+ECHO_WINDOW_S = 15e-3
 #: Candidates kept for the chain search (the loudest).
 MAX_CANDIDATES = 400
 #: Samples per second of the envelope kept for the report.
@@ -197,7 +203,8 @@ def time_onset(envelope, start, level_before, rate_hz, spread):
     stop = min(envelope.size, start + search + int(round(MERGE_S * rate_hz)) + 1)
     peak_index = start + int(np.argmax(envelope[start:stop]))
     peak = float(envelope[peak_index])
-    level = level_before + CROSSING * (peak - level_before)
+    # well above the noise too: on a faint click 30 % of the rise is within the noise's reach
+    level = level_before + max(CROSSING * (peak - level_before), NOISE_MARGIN * spread)
     # the first crossing after the rise began: a double click is timed at its first click even when
     # the second is the louder
     first = max(start - search // 4, 1)
@@ -206,9 +213,18 @@ def time_onset(envelope, start, level_before, rate_hz, spread):
     slope = max(float(envelope[above] - envelope[below]), 1e-12)
     width = max(3, int(round(SMOOTH_S * rate_hz)) | 1)
     onset = below + (level_before - envelope[below]) / slope + 0.5 * (width - 1)
-    # the noise on the two samples of the tangent and on the level before (a mean over many samples)
-    noise_se = spread / np.sqrt(width) * np.sqrt(2.0) / slope
+    # the noise on the two samples of the tangent (the level before is a mean over many samples)
+    noise_se = spread * np.sqrt(2.0) / slope
     return float(onset), float(noise_se), peak
+
+
+def click_preference(onsets_s, peaks):
+    """How much each candidate is preferred in a chain (1 to 1.6): a candidate that no other precedes
+    within :data:`ECHO_WINDOW_S` gets 0.5 more (an echo follows its click at a fixed delay, so the chain
+    of echoes keeps the intervals of the chain of clicks; the one heard first is the click), and up to
+    0.1 more for its loudness (a knock in the silence before the drop is fainter than the ball)."""
+    gaps = np.diff(onsets_s, prepend=-np.inf)
+    return 1.0 + 0.5 * (gaps > ECHO_WINDOW_S) + 0.1 * peaks / peaks.max()
 
 
 def select_bounces(times_s, weights):
@@ -307,10 +323,7 @@ def detect_impacts(samples, rate_hz, start_s=0.0, source="recording"):
     timed = timed[np.argsort(timed[:, 0], kind="stable")]
     timed = timed[distinct_clicks(timed[:, 0] / rate_hz, timed[:, 2])]
     onset, noise_se, peak = timed.T
-    # between chains of equal length the earlier wins: an echo follows its click at a fixed delay, so the
-    # chain of echoes keeps the intervals of the chain of clicks
-    span = max(onset.max() - onset.min(), 1.0) if onset.size else 1.0
-    chosen = select_bounces(onset / rate_hz, 1.5 - 0.5 * (onset - onset.min()) / span) if onset.size else np.arange(0)
+    chosen = select_bounces(onset / rate_hz, click_preference(onset / rate_hz, peak)) if onset.size else np.arange(0)
     candidates = pd.DataFrame({"time_s": start_s + onset / rate_hz, "peak": peak,
                                "selected": np.isin(np.arange(peak.size), chosen)})
     if chosen.size < 3:
