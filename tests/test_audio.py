@@ -310,3 +310,58 @@ def test_bad_sound_input_is_one_line(tmp_path, truth, name, words):
     assert not (tmp_path / "t.nc").exists()
     with pytest.raises(InputError):
         analyse_recording(path)
+
+
+def test_a_click_at_the_first_sample_is_no_trouble(truth):
+    """A knock in the very first samples (the phone picked up): the bounces are found as without it."""
+    sound = render_sound(truth, seed=4, lead_s=0.05)
+    knocked = sound.samples.copy()
+    knocked[:200] += 0.8 * np.exp(-np.arange(200) / 30.0) * np.sin(np.arange(200) * 0.9)
+    plain = detect_impacts(sound.samples, sound.rate_hz).table["time_s"].to_numpy()
+    found = detect_impacts(knocked, sound.rate_hz).table["time_s"].to_numpy()
+    assert found[:8] == pytest.approx(plain[:8], abs=1e-6)
+
+
+# --- a video with sound -------------------------------------------------------------------------
+
+def test_sound_and_video_of_one_drop_compared(tmp_path):
+    """A 120 frames/s clip rendered by dropfit.video_synth with a sound track whose first sample is stamped
+    40 ms late (a phone's audio/video offset; the microphone on the floor): ``dropfit sound-video``
+    recovers the offset within 0.5 ms, pairs the three impacts, gives e from both within their intervals of
+    the truth's 0.75, and the drop height from the sound with the release the video saw."""
+    import types
+
+    from dropfit.synth import simulate_drop
+    from helpers import CLIP_BALL_RADIUS_M, render_drop_clip, with_sound_track
+
+    drop = simulate_drop(0.8, CLIP_BALL_RADIUS_M, {"kind": "constant", "e0": 0.75}, mass_kg=0.057,
+                         release_time_s=0.1)
+    clip = render_drop_clip(tmp_path / "clip.avi", drop, fps=120.0).attrs["video_path"]
+    heard = types.SimpleNamespace(impacts=pd.DataFrame({"t_touchdown_s": drop.impacts["t_s"],
+                                                        "v_in_m_s": drop.impacts["v_in_m_s"]}), t_release_s=0.0)
+    sound = render_sound(heard, seed=0, lead_s=0.0, tail_s=0.0, mic_distance_m=0.0)
+    samples = sound.samples[: int(1.7 * sound.rate_hz)]
+    video = with_sound_track(clip, tmp_path / "drop.mov", samples, sound.rate_hz, sound_start_s=0.040)
+    result = dropfit("sound-video", video, "--out", tmp_path / "pairs.csv", "--summary", tmp_path / "summary.json",
+                     "--ball-radius-m", CLIP_BALL_RADIUS_M, "--ball-mass-kg", "0.057", cwd=tmp_path)
+    assert result.returncode == 0, result.stderr
+    assert "sound − video 39.8" in result.stdout or "sound − video 39.9" in result.stdout
+    summary = json.loads((tmp_path / "summary.json").read_text(encoding="utf-8"))
+    assert summary["offset_s"] == pytest.approx(0.040, abs=0.5e-3)
+    assert summary["n_paired"] == 3
+    for source in ("video", "sound"):
+        e = summary[f"e_{source}"]
+        assert e["ci95"][0] < 0.75 < e["ci95"][1]
+    assert summary["drop_height_sound_m"]["value"] == pytest.approx(0.8, abs=0.005)
+    pairs = pd.read_csv(tmp_path / "pairs.csv")
+    assert list(pairs["impact_video"]) == [1, 2, 3] and list(pairs["impact_sound"]) == [1, 2, 3]
+
+
+def test_a_video_without_sound_is_one_line(tmp_path):
+    from helpers import ball_frames, encode_clip
+
+    video = encode_clip(tmp_path / "silent.mp4", ball_frames(count=12)[0])
+    result = dropfit("sound-video", video, "--out", tmp_path / "p.csv", "--summary", tmp_path / "s.json", cwd=tmp_path)
+    assert result.returncode == 1
+    assert_one_line_error(result.stderr, "silent.mp4")
+    assert "no sound track" in result.stderr

@@ -77,6 +77,14 @@ def _parser():
     overlay.add_argument("--sample-id")
     _add_options(overlay, "run")
 
+    sound_video = stage("sound-video", "a video with sound: impacts heard and seen paired (CSV), the audio/video "
+                                       "offset and e from both (JSON)")
+    sound_video.add_argument("video", help="a video with a sound track (.mp4, .mov, .mkv, .avi)")
+    sound_video.add_argument("--out", required=True, help="paired impacts to write (CSV)")
+    sound_video.add_argument("--summary", required=True, help="offset and e from both to write (JSON)")
+    sound_video.add_argument("--sample-id")
+    _add_options(sound_video, "run")
+
     analyse = stage("analyse", "trajectory → impacts and flights tables (CSV) and analysis summary (JSON)")
     analyse.add_argument("trajectory")
     analyse.add_argument("--impacts", required=True)
@@ -148,6 +156,12 @@ def _run(args):
         stages.measure(args.log, args.out, ball, settings, args.sample_id, args.track)
     elif args.command == "overlay":
         stages.overlay(args.video, args.out, args.clip, args.results, ball, settings, args.sample_id, args.tiles)
+    elif args.command == "sound-video":
+        summary = stages.sound_video(args.video, args.out, args.summary, ball, settings, args.sample_id)
+        e_video, e_sound = summary["e_video"], summary["e_sound"]
+        print(f"{shown_path(args.video)}: sound − video {1e3 * summary['offset_s']:.2f} ± "
+              f"{1e3 * summary['offset_se_s']:.2f} ms over {summary['n_paired']} impacts; e video "
+              f"{e_video['value']:.4f} ± {e_video['se']:.4f}, e sound {e_sound['value']:.4f} ± {e_sound['se']:.4f}")
     elif args.command == "analyse":
         stages.analyse(args.trajectory, args.impacts, args.flights, args.summary, settings)
     elif args.command == "fit":
@@ -162,13 +176,15 @@ def _run(args):
 
 
 #: The outputs of each stage, by argument name.
-_OUTPUTS = {"measure": ["out", "track"], "overlay": ["out", "clip"], "analyse": ["impacts", "flights", "summary"], "fit": ["out"],
+_OUTPUTS = {"measure": ["out", "track"], "overlay": ["out", "clip"], "sound-video": ["out", "summary"],
+            "analyse": ["impacts", "flights", "summary"], "fit": ["out"],
             "report": ["html", "figure"], "summary": ["csv", "html"], "qc": ["html", "figure", "csv"]}
 #: Outputs a stage writes whole before a later step of it may fail, and keeps then: a clip refused after
 #: tracking keeps its tracked table, which shows why.
 _KEPT_ON_FAILURE = {"measure": ["track"]}
 #: The input each stage's messages name: the recording, the trajectory, the analysis, the fit results.
 _INPUTS = {"synth": "scenarios", "synth-video": "name", "run": "recording", "measure": "log", "overlay": "video",
+           "sound-video": "video",
            "analyse": "trajectory", "fit": "analysis", "report": "trajectory", "summary": "fits", "qc": "fits"}
 
 

@@ -199,6 +199,17 @@ def run(recording, out_dir, ball=None, settings=None, sample_id=None):
     return result
 
 
+def sound_video(video, pairs_path, summary_path, ball=None, settings=None, sample_id=None):
+    """A video with sound: the impacts heard and seen, paired (CSV), and the audio/video offset with e from
+    both (JSON) (:func:`dropfit.audio.compare.compare_sound_and_video`)."""
+    from .audio.compare import compare_sound_and_video
+
+    pairs, summary = compare_sound_and_video(video, ball, settings, sample_id)
+    write_table(pairs_path, pairs)
+    write_json(summary_path, summary)
+    return summary
+
+
 def write_trajectory(path, trajectory):
     """Write a trajectory (xarray.Dataset) as NetCDF to ``path`` atomically."""
     with atomic_output(path) as tmp:

@@ -16,7 +16,8 @@ The steps follow the signal:
    standard error from the envelope's noise over the edge's slope; a faint candidate just before a
    much louder one is that click's pre-echo (lossy codecs) and is dropped (:func:`distinct_clicks`);
 4. :func:`select_bounces` — the longest chain of candidates whose successive intervals shrink as a
-   bouncing ball's do (each interval 0.3-1.15 of the one before, dynamic programming over pairs),
+   bouncing ball's do (each interval 0.3-1.15 of the one before, the ratio changing little; dynamic
+   programming over pairs),
    between chains of equal length, those of candidates heard first after a silence (a room echo
    repeats the clicks' intervals a fixed delay later) and louder (:func:`click_preference`): echoes,
    talk and knocks fall out;
@@ -59,12 +60,15 @@ CROSSING = 0.3
 NOISE_MARGIN = 4.0
 #: Rises closer than this to the previous one are the same click (a double click, a rattle), s.
 MERGE_S = 2.0e-3
-#: A rise followed within this time (s) by one this many times louder is part of that click (pre-echo).
-PRE_ECHO_S = 8.0e-3
-PRE_ECHO_RATIO = 3.0
+#: A rise followed within this time (s) by one this many times louder is part of that click: the pre-echo
+#: of a lossy codec reaches back up to a block (AAC: 1024-2048 samples, 23-46 ms at 44.1 kHz).
+PRE_ECHO_S = 25e-3
+PRE_ECHO_RATIO = 1.5
 #: Each interval of a bouncing ball is this fraction of the one before (e² > 0.09 down to slightly
 #: more than 1 for timing noise on the shortest intervals).
 INTERVAL_RATIO = (0.3, 1.15)
+#: Cost of a change of the interval ratio along a chain, per unit of |ln(ratio / previous ratio)|.
+RATIO_CHANGE_PENALTY = 1.0
 #: A room's echoes arrive within this time after their click, s (a path 5 m longer; a bounce interval is
 #: longer than this until the last, faint bounces).
 ECHO_WINDOW_S = 15e-3
@@ -168,7 +172,8 @@ def distinct_clicks(onsets_s, peaks):
     Parameters
     ----------
     onsets_s, peaks : numpy.ndarray
-        Onset times (s, increasing) and envelope peaks (full scale 1) of the candidates.
+        Onset times (s, increasing) and the sound's peak over the first :data:`AHEAD_S` +
+        :data:`MERGE_S` after each onset (all frequencies, full scale 1).
 
     Returns
     -------
@@ -204,15 +209,20 @@ def time_onset(envelope, start, level_before, rate_hz, spread):
     peak_index = start + int(np.argmax(envelope[start:stop]))
     peak = float(envelope[peak_index])
     # well above the noise too: on a faint click 30 % of the rise is within the noise's reach
-    level = level_before + max(CROSSING * (peak - level_before), NOISE_MARGIN * spread)
+    level = min(level_before + max(CROSSING * (peak - level_before), NOISE_MARGIN * spread), peak)
     # the first crossing after the rise began: a double click is timed at its first click even when
     # the second is the louder
-    first = max(start - search // 4, 1)
-    above = first + int(np.argmax(envelope[first:peak_index + 1] >= level))
-    below = above - 1
+    first = min(max(start - search // 4, 1), max(peak_index, 1))
+    stretch = envelope[first - 1:peak_index + 1]
+    upward = np.flatnonzero((stretch[1:] >= level) & (stretch[:-1] < level))
+    # an upward crossing: a stretch that starts above the level (a pre-echo) is not the click's edge
+    above = first + int(upward[0]) if upward.size else peak_index
+    below = max(above - 1, 0)
     slope = max(float(envelope[above] - envelope[below]), 1e-12)
     width = max(3, int(round(SMOOTH_S * rate_hz)) | 1)
-    onset = below + (level_before - envelope[below]) / slope + 0.5 * (width - 1)
+    # within the stretch searched: a flat or falling edge (a click at the very start) cannot move it out
+    onset = float(np.clip(below + (level_before - envelope[below]) / slope, max(start - search, 0), peak_index))
+    onset += 0.5 * (width - 1)
     # the noise on the two samples of the tangent (the level before is a mean over many samples)
     noise_se = spread * np.sqrt(2.0) / slope
     return float(onset), float(noise_se), peak
@@ -227,15 +237,25 @@ def click_preference(onsets_s, peaks):
     return 1.0 + 0.5 * (gaps > ECHO_WINDOW_S) + 0.1 * peaks / peaks.max()
 
 
-def select_bounces(times_s, weights):
-    """The longest chain of times whose successive intervals shrink like a bouncing ball's.
+def select_bounces(times_s, weights, typical_ratio=None):
+    """The chain of times whose successive intervals shrink like a bouncing ball's: the longest, and
+    among long ones the one whose interval ratios change least.
+
+    Dynamic programming over pairs of candidates: a chain ending (i, j) grows by k when the ratio of
+    its intervals (t_k − t_j)/(t_j − t_i) lies in :data:`INTERVAL_RATIO`; it gains the weight of k less
+    :data:`RATIO_CHANGE_PENALTY` × |ln| of how much that ratio differs from the chain's previous one
+    (e hardly changes from one impact to the next: a knock before the drop, or an echo taken for a
+    click, makes the ratio jump).
 
     Parameters
     ----------
     times_s : numpy.ndarray
         Candidate times (s), increasing.
     weights : numpy.ndarray
-        Preference of each candidate (between 1 and 2: the chain's length first, then the preference).
+        Preference of each candidate (1 to 2: the chain's length first).
+    typical_ratio : float, optional
+        The interval ratio a chain's first step is compared with (a first pass's median): without it
+        the first step is free, and a knock before the first impact can stand in for it.
 
     Returns
     -------
@@ -247,6 +267,7 @@ def select_bounces(times_s, weights):
         return np.arange(n)
     low, high = INTERVAL_RATIO
     score = np.full((n, n), -np.inf)  # best chain ending with the pair (i, j)
+    last_ratio = np.full((n, n), np.nan if typical_ratio is None else typical_ratio)  # its last interval ratio
     parent = np.full((n, n), -1)
     upper = np.triu(np.ones((n, n), bool), 1)
     score[upper] = (weights[:, None] + weights[None, :])[upper]
@@ -257,12 +278,16 @@ def select_bounces(times_s, weights):
         allowed = (ratio >= low) & (ratio <= high) & np.isfinite(score[:j, j])[:, None]
         if not allowed.any():
             continue
-        candidates = np.where(allowed, score[:j, j][:, None], -np.inf)
+        change = np.abs(np.log(ratio / last_ratio[:j, j][:, None]))
+        candidates = score[:j, j][:, None] - RATIO_CHANGE_PENALTY * np.nan_to_num(change, nan=0.0)
+        candidates = np.where(allowed, candidates, -np.inf)
         best_i = np.argmax(candidates, axis=0)
-        best = candidates[best_i, np.arange(after.size)] + weights[j + 1:]
+        columns = np.arange(after.size)
+        best = candidates[best_i, columns] + weights[j + 1:]
         better = best > score[j, j + 1:]
         score[j, j + 1:][better] = best[better]
         parent[j, j + 1:][better] = best_i[better]
+        last_ratio[j, j + 1:][better] = ratio[best_i, columns][better]
     i, j = np.unravel_index(np.argmax(np.where(upper, score, -np.inf)), score.shape)
     chain = [j, i]
     while parent[i, j] >= 0:
@@ -320,10 +345,20 @@ def detect_impacts(samples, rate_hz, start_s=0.0, source="recording"):
         keep = np.sort(np.argsort([-envelope[s:s + int(AHEAD_S * rate_hz) + 1].max() for s in starts])[:MAX_CANDIDATES])
         starts = starts[keep]
     timed = np.array([time_onset(envelope, start, behind[start], rate_hz, spread) for start in starts]).reshape(-1, 3)
-    timed = timed[np.argsort(timed[:, 0], kind="stable")]
-    timed = timed[distinct_clicks(timed[:, 0] / rate_hz, timed[:, 2])]
+    # the loudness of each click's first milliseconds from its onset, all frequencies: a pre-echo's own,
+    # without the click that follows it (the high-passed envelope can make an echo louder than the thump)
+    early = int(round((AHEAD_S + MERGE_S) * rate_hz))
+    mono = np.asarray(samples, dtype=float)
+    broadband = np.abs((mono.mean(axis=1) if mono.ndim == 2 else mono) - mono.mean())
+    early_peak = np.array([broadband[int(onset):int(onset) + early].max() for onset in timed[:, 0]])
+    order = np.argsort(timed[:, 0], kind="stable")
+    timed = timed[order][distinct_clicks(timed[order, 0] / rate_hz, early_peak[order])]
     onset, noise_se, peak = timed.T
-    chosen = select_bounces(onset / rate_hz, click_preference(onset / rate_hz, peak)) if onset.size else np.arange(0)
+    preference = click_preference(onset / rate_hz, peak) if onset.size else np.zeros(0)
+    chosen = select_bounces(onset / rate_hz, preference)
+    if chosen.size >= 4:  # again, each chain's first step held to the ratio of the chain found
+        intervals = np.diff(onset[chosen])
+        chosen = select_bounces(onset / rate_hz, preference, float(np.median(intervals[1:] / intervals[:-1])))
     candidates = pd.DataFrame({"time_s": start_s + onset / rate_hz, "peak": peak,
                                "selected": np.isin(np.arange(peak.size), chosen)})
     if chosen.size < 3:
