@@ -365,3 +365,24 @@ def test_a_video_without_sound_is_one_line(tmp_path):
     assert result.returncode == 1
     assert_one_line_error(result.stderr, "silent.mp4")
     assert "no sound track" in result.stderr
+
+
+def test_the_workflow_stages_one_by_one_on_a_sound_file(tmp_path, truth):
+    """measure → analyse → fit → report, as the workflow runs them on a sound file: the files read back
+    and the fit's e equals the one of :func:`dropfit.analyse_recording` in memory."""
+    path, sound = sound_file(tmp_path, truth)
+    ball = ["--ball-type", "table_tennis", "--ball-radius-m", "0.02", "--ball-mass-kg", "0.0027"]
+    steps = [
+        ("measure", path, "--out", "t.nc", *ball),
+        ("analyse", "t.nc", "--impacts", "i.csv", "--flights", "f.csv", "--summary", "a.json"),
+        ("fit", "--analysis", "a.json", "--impacts", "i.csv", "--out", "fit.json"),
+        ("report", "--trajectory", "t.nc", "--flights", "f.csv", "--impacts", "i.csv", "--analysis", "a.json",
+         "--fit", "fit.json", "--html", "r.html", "--figure", "r.png"),
+    ]
+    for step in steps:
+        result = dropfit(*step, cwd=tmp_path)
+        assert result.returncode == 0, (step[0], result.stderr)
+    staged = json.loads((tmp_path / "fit.json").read_text(encoding="utf-8"))
+    in_memory = analyse_recording(path, **TABLE_TENNIS).to_dict()
+    assert staged["restitution"]["e"] == in_memory["restitution"]["e"]
+    assert (tmp_path / "r.png").read_bytes().startswith(b"\x89PNG")

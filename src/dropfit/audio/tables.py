@@ -29,28 +29,34 @@ _PHYPHOX = re.compile(r"^\s*bounce\s+(\d+)\s*\(s\)\s*$", re.IGNORECASE)
 _UNITS = {"impact_time_s": 1.0, "impact_time_ms": 1e-3}
 
 
-def _header(path):
+#: The most of a header line looked at to tell a table of impact times from a height log, characters.
+HEADER_PEEK_CHARS = 65536
+_TIME_COLUMN = re.compile(r"(?:^|[,;\t\"\s])impact_time_m?s(?:[,;\t\"\s]|$)", re.IGNORECASE)
+_PHYPHOX_IN_HEADER = re.compile(r"bounce\s+\d+\s*\(s\)", re.IGNORECASE)
+
+
+def _header(path, limit=None):
+    """The first line that is not empty or a comment (at most ``limit`` characters of it)."""
     try:
         with open(path, "r", encoding="utf-8-sig", errors="replace") as handle:
-            for line in handle:
+            while True:
+                line = handle.readline(limit or -1)
+                if not line:
+                    return ""
                 if line.strip() and not line.lstrip().startswith("#"):
                     return line
     except OSError:
         return ""
-    return ""
-
-
-def _cells(header):
-    return [cell.strip().strip('"').strip() for cell in re.split(r"[,;\t]", header)]
 
 
 def is_impact_table(path):
     """True if ``path`` is a table of impact times (a CSV naming ``impact_time_s``/``_ms``, or a phyphox
-    "(In)elastic collision" export), judged by its suffix and its header line."""
+    "(In)elastic collision" export), judged by its suffix and the start of its header line (a height
+    log's header of a million columns is not read whole)."""
     if not str(path).lower().endswith(TABLE_SUFFIXES):
         return False
-    cells = [cell.lower() for cell in _cells(_header(path))]
-    return any(cell in _UNITS for cell in cells) or any(_PHYPHOX.match(cell) for cell in cells)
+    header = _header(path, HEADER_PEEK_CHARS)
+    return bool(_TIME_COLUMN.search(header) or _PHYPHOX_IN_HEADER.search(header))
 
 
 def read_impact_table(path):
