@@ -386,3 +386,15 @@ def test_the_workflow_stages_one_by_one_on_a_sound_file(tmp_path, truth):
     in_memory = analyse_recording(path, **TABLE_TENNIS).to_dict()
     assert staged["restitution"]["e"] == in_memory["restitution"]["e"]
     assert (tmp_path / "r.png").read_bytes().startswith(b"\x89PNG")
+
+
+def test_a_release_time_that_cannot_be_is_one_line(tmp_path, truth):
+    """A release after the first impact heard, and a release time given for a height log."""
+    path, _ = sound_file(tmp_path, truth)
+    late = dropfit("measure", path, "--out", tmp_path / "t.nc", "--release-time-s", "0.9", cwd=tmp_path)
+    assert late.returncode == 1 and "is not before the first impact heard" in late.stderr
+    assert_one_line_error(late.stderr, "drop.wav")
+    log = tmp_path / "log.csv"
+    log.write_text("time_s,y_m\n0,1\n0.01,0.99\n", encoding="utf-8")
+    with pytest.raises(InputError, match="applies to a sound recording"):
+        analyse_recording(log, release_time_s=0.1)

@@ -108,6 +108,9 @@ def measure_recording(path, ball=None, settings=None, *, sample_id=None, tracked
              "ball_type": ball.type, "floor_m": settings.floor_m, "dropfit_version": __version__,
              "gravity_m_s2": gravity.value_m_s2, "gravity_se_m_s2": gravity.se_m_s2, "gravity_source": gravity.source}
     scale = settings.scale_m_per_px
+    if settings.release_time_s is not None and not is_sound_recording(path):
+        raise InputError(f"{shown_path(path)}: release_time_s applies to a sound recording; a log or a video shows "
+                         f"the release itself: leave it out")
     if is_video(path):
         trajectory = trajectory_from_video(path, ball.radius_m, scale and abs(scale), settings.capture_fps,
                                            gravity.value_m_s2, attrs, settings.ruler_tick_m,
