@@ -269,6 +269,8 @@ def test_dropfit_run_on_a_sound_file_writes_every_file_and_the_report(tmp_path, 
     assert "Impacts heard in the sound" in (out / "report.html").read_text(encoding="utf-8")
     fit = json.loads((out / "fit.json").read_text(encoding="utf-8"))
     assert fit["drag"]["model"] == "nominal" and "impact times alone" in fit["drag"]["why"]
+    assert not fit["contact_time"]["resolvable"] and "touchdowns only" in fit["contact_time"]["why"]
+    assert "last impact heard" in fit["theory"]["total_bouncing_time"]["note"]
     summary = dropfit("summary", out / "fit.json", "--csv", tmp_path / "s.csv", "--html", tmp_path / "s.html",
                       cwd=tmp_path)
     assert summary.returncode == 0 and pd.read_csv(tmp_path / "s.csv")["status"].iloc[0] == "ok"

@@ -98,6 +98,8 @@ def fit_summary(summary, impacts, settings=None, ball_type=None):
     theory = theory_checks(constant["value"], constant["se"], summary["drop_height_m"], fall_time,
                            impacts["h_after_m"].to_numpy(), impacts["h_after_se_m"].to_numpy(),
                            summary["rest_time_s"] - summary["drop_apex_time_s"])
+    if summary.get("bouncing_time_note"):  # a sound recording's bouncing time ends otherwise
+        theory["total_bouncing_time"]["note"] = summary["bouncing_time_note"]
     itf = _itf(ball_type, summary, impacts, models, used, settings.itf_drop_height_m, settings.itf_rebound_min_m,
                settings.itf_rebound_max_m, settings.itf_drop_height_tolerance_m)
     resolvable = impacts["contact_resolvable"].astype(bool).to_numpy()
@@ -187,6 +189,8 @@ def _time_base_record(attrs):
 def _contact_time(summary, resolvable_rows):
     """Whether contact times are reported, why, and, with the floor not known, the contact time at 1 m/s
     that the flights and the ball kind's prior give (the model behind the contact height)."""
+    if summary.get("contact_time_why"):  # a sound recording: the contact times are assumed, never measured
+        return {"resolvable": False, "why": summary["contact_time_why"]}
     if not resolvable_rows.empty:
         return {"resolvable": True, "n_impacts": len(resolvable_rows),
                 "why": "the floor is known, the sampling resolves the contact and each contact time stands "
