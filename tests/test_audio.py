@@ -24,6 +24,7 @@ from dropfit.balls import ball_kind
 from dropfit.errors import InputError
 from dropfit.physics import drag_parameter
 from dropfit.restitution import Z95
+from dropfit.stages import RUN_FILES
 from helpers import assert_one_line_error, dropfit, real_recording
 
 TABLE_TENNIS = {"ball_type": "table_tennis", "ball_radius_m": 0.02, "ball_mass_kg": 0.0027}
@@ -358,6 +359,15 @@ def test_sound_and_video_of_one_drop_compared(tmp_path):
     pairs = pd.read_csv(tmp_path / "pairs.csv")
     assert list(pairs["impact_video"]) == [1, 2, 3] and list(pairs["impact_sound"]) == [1, 2, 3]
 
+    # the video's sound track alone, as a recording of kind audio: no tracked table, the sound's e
+    out = tmp_path / "sound_only"
+    result = dropfit("run", video, "--out", out, "--kind", "audio", "--ball-radius-m", CLIP_BALL_RADIUS_M,
+                     "--ball-mass-kg", "0.057", cwd=tmp_path)
+    assert result.returncode == 0, result.stderr
+    assert sorted(path.name for path in out.iterdir()) == sorted(RUN_FILES)
+    assert json.loads((out / "fit.json").read_text(encoding="utf-8"))["restitution"]["e"]["value"] == \
+        pytest.approx(summary["e_sound"]["value"], abs=0.01)
+
 
 def test_a_video_without_sound_is_one_line(tmp_path):
     from helpers import ball_frames, encode_clip
@@ -391,7 +401,8 @@ def test_the_workflow_stages_one_by_one_on_a_sound_file(tmp_path, truth):
 
 
 def test_a_release_time_that_cannot_be_is_one_line(tmp_path, truth):
-    """A release after the first impact heard, and a release time given for a height log."""
+    """A release after the first impact heard, a release time given for a height log, a sound file given
+    as a video."""
     path, _ = sound_file(tmp_path, truth)
     late = dropfit("measure", path, "--out", tmp_path / "t.nc", "--release-time-s", "0.9", cwd=tmp_path)
     assert late.returncode == 1 and "is not before the first impact heard" in late.stderr
@@ -400,3 +411,5 @@ def test_a_release_time_that_cannot_be_is_one_line(tmp_path, truth):
     log.write_text("time_s,y_m\n0,1\n0.01,0.99\n", encoding="utf-8")
     with pytest.raises(InputError, match="applies to a sound recording"):
         analyse_recording(log, release_time_s=0.1)
+    wrong = dropfit("measure", path, "--out", tmp_path / "t.nc", "--kind", "video", cwd=tmp_path)
+    assert wrong.returncode == 1 and "is given as kind video but reads as audio" in wrong.stderr

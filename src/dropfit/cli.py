@@ -23,7 +23,7 @@ from pathlib import Path
 from . import stages
 from .errors import InputError, one_line, shown, shown_path
 from .files import write_failure
-from .settings import OPTIONS, OptionError, option_default, split_options
+from .settings import OPTIONS, OptionError, Settings, option_default, split_options
 
 
 def _parser():
@@ -191,7 +191,8 @@ _INPUTS = {"synth": "scenarios", "synth-video": "name", "run": "recording", "mea
 def _outputs(args):
     """The files the stage writes (``run``: the files of :func:`dropfit.stages.run_files` in ``--out``)."""
     if args.command == "run":
-        return [os.path.join(args.out, name) for name in stages.run_files(args.recording)]
+        names = stages.run_files(args.recording, Settings(kind="audio") if args.kind == "audio" else None)
+        return [os.path.join(args.out, name) for name in names]
     return [getattr(args, name) for name in _OUTPUTS.get(args.command, []) if getattr(args, name) is not None]
 
 

@@ -37,7 +37,7 @@ from .videolog import VIDEO_SUFFIXES, is_video, scale_targets_of, trajectory_fro
 
 #: Settings that apply to measuring a recording, not to an already measured trajectory.
 MEASURE_ONLY_SETTINGS = ("scale_m_per_px", "ruler_tick_m", "scale_points_px", "scale_distance_m", "marker_size_m",
-                         "board_square_m", "board_inner_corners", "capture_fps", "release_time_s")
+                         "board_square_m", "board_inner_corners", "capture_fps", "kind", "release_time_s")
 
 
 def track_recording(path, settings=None):
@@ -67,6 +67,23 @@ def track_recording(path, settings=None):
     if not is_video(path):
         raise InputError(f"{shown_path(path)}: is not a video ({', '.join(VIDEO_SUFFIXES)}); only a video is tracked")
     return track_video_and_background(path, capture_fps=(settings or Settings()).capture_fps)
+
+
+def recording_kind(path, settings=None):
+    """What a recording is, ``height_log``, ``video`` or ``audio``: the settings' ``kind`` when given (a
+    video given as ``audio`` is measured by its sound track), else told by the file's suffix and header.
+
+    Raises
+    ------
+    dropfit.errors.InputError
+        For a kind the file cannot be (a height log that is a video or a sound file, a video that is not).
+    """
+    told = "video" if is_video(path) else "audio" if is_sound_recording(path) else "height_log"
+    kind = (settings or Settings()).kind or told
+    if kind != told and not (kind == "audio" and told == "video"):
+        raise InputError(f"{shown_path(path)}: is given as kind {kind} but reads as {told.replace('_', ' ')} (by its "
+                         f"suffix and header); give the kind of the file, or the file of that kind")
+    return kind
 
 
 def measure_recording(path, ball=None, settings=None, *, sample_id=None, tracked=None):
@@ -108,14 +125,15 @@ def measure_recording(path, ball=None, settings=None, *, sample_id=None, tracked
              "ball_type": ball.type, "floor_m": settings.floor_m, "dropfit_version": __version__,
              "gravity_m_s2": gravity.value_m_s2, "gravity_se_m_s2": gravity.se_m_s2, "gravity_source": gravity.source}
     scale = settings.scale_m_per_px
-    if settings.release_time_s is not None and not is_sound_recording(path):
+    kind = recording_kind(path, settings)
+    if settings.release_time_s is not None and kind != "audio":
         raise InputError(f"{shown_path(path)}: release_time_s applies to a sound recording; a log or a video shows "
                          f"the release itself: leave it out")
-    if is_video(path):
+    if kind == "video":
         trajectory = trajectory_from_video(path, ball.radius_m, scale and abs(scale), settings.capture_fps,
                                            gravity.value_m_s2, attrs, settings.ruler_tick_m,
                                            scale_targets_of(settings), tracked)
-    elif is_sound_recording(path):
+    elif kind == "audio":
         trajectory = sound_trajectory(path, attrs, settings.release_time_s)
     else:
         trajectory = trajectory_from_log(path, scale_m_per_px=scale, gravity_m_s2=gravity.value_m_s2, attrs=attrs,

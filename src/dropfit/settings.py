@@ -143,6 +143,9 @@ OPTIONS = {option.name: option for option in (
            _MEASURE, choices=("centre", "bottom", "top"), text=True, column=True),
     Option("capture_fps", "capture rate in frames/s of a slow-motion video whose file states another rate",
            _MEASURE, "the capture rate in frames/s", 0.0, math.inf, False, column=True),
+    Option("kind", "what the recording is: height_log, video or audio (default: told by the file's suffix and "
+           "header); audio for a video measures its sound track", _MEASURE,
+           choices=("height_log", "video", "audio"), text=True, column=True),
     Option("release_time_s", "audio: time in s on the recording's clock at which the ball was released at rest "
            "(gives the drop height, the first impact's e and the total bouncing time)", _MEASURE,
            "the release time in s from the start of the recording", 0.0, column=True),
@@ -273,6 +276,9 @@ class Settings:
     capture_fps : float, optional
         Capture rate in frames/s of a slow-motion video whose file states another rate. Default
         None: the file's rate, checked against gravity where a scale allows.
+    kind : {"height_log", "video", "audio"}, optional
+        What the recording is; ``audio`` for a video measures its sound track (the sample sheet's
+        ``kind``). Default None: told by the file's suffix and header.
     release_time_s : float, optional
         Audio: when the ball was let go at rest, in s on the recording's clock (taken as exact). Default
         None: the fall is not heard, so the drop height and the first impact's e are not measured.
@@ -310,6 +316,7 @@ class Settings:
     floor_m: float | None = None
     height_reference: str = "centre"
     capture_fps: float | None = None
+    kind: str | None = None
     release_time_s: float | None = None
     gravity_m_s2: float | None = None
     latitude_deg: float | None = None

@@ -162,9 +162,11 @@ RUN_FILES = ("trajectory.nc", "impacts.csv", "flights.csv", "analysis.json", "fi
 VIDEO_RUN_FILES = ("track.csv", "contact_sheet.png")
 
 
-def run_files(recording):
-    """The names of the files ``dropfit run`` writes for ``recording`` (a path)."""
-    return RUN_FILES + (VIDEO_RUN_FILES if is_video(recording) else ())
+def run_files(recording, settings=None):
+    """The names of the files ``dropfit run`` writes for ``recording`` (a path; a video's sound track
+    measured, ``kind`` audio, writes no tracked table)."""
+    tracked = is_video(recording) and (settings is None or settings.kind != "audio")
+    return RUN_FILES + (VIDEO_RUN_FILES if tracked else ())
 
 
 def run(recording, out_dir, ball=None, settings=None, sample_id=None):
@@ -177,13 +179,14 @@ def run(recording, out_dir, ball=None, settings=None, sample_id=None):
     dropfit.result.RecordingResult
         The result (:func:`dropfit.pipeline.process_recording`); ``fit.json`` is its ``to_dict()``.
     """
-    video = isinstance(recording, (str, os.PathLike)) and is_video(recording)
+    video = isinstance(recording, (str, os.PathLike)) and is_video(recording) and (settings is None
+                                                                                   or settings.kind != "audio")
     tracked = track_recording(recording, settings) if video else None
     result = process_recording(recording, ball, settings, sample_id=sample_id, tracked=tracked)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(prefix=".dropfit-run.", dir=out) as directory:
-        made = {name: Path(directory) / name for name in (run_files(recording) if video else RUN_FILES)}
+        made = {name: Path(directory) / name for name in (run_files(recording, settings) if video else RUN_FILES)}
         write_trajectory(made["trajectory.nc"], result.trajectory)
         write_analysis(result.analysis, result.trajectory.attrs, made["impacts.csv"], made["flights.csv"],
                        made["analysis.json"])

@@ -56,8 +56,10 @@ def _alternatives(names):
 from dropfit.videolog import is_video
 
 #: Samples whose recording is a video: its measure job also writes the tracked table (track.csv), and
-#: an overlay job draws what was tracked on its frames (contact_sheet.png), refused clips included.
-video_samples = [sample for sample in samples.index if is_video(samples.loc[sample, "path"])]
+#: an overlay job draws what was tracked on its frames (contact_sheet.png), refused clips included; a
+#: video of kind audio is measured by its sound track.
+video_samples = [sample for sample in samples.index
+                 if is_video(samples.loc[sample, "path"]) and samples.loc[sample, "kind"] != "audio"]
 log_samples = [sample for sample in samples.index if sample not in video_samples]
 
 
