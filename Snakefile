@@ -3,6 +3,7 @@
 # Table of contents only; the rules live in workflow/rules/, one file per stage:
 #   synth    data/synthetic/{scenario}.csv + .truth.json   synthetic drop tests with ground truth
 #   synth_video  results/video/{clip}.avi + truth           synthetic drop-test videos
+#   synth_audio  results/audio/table_tennis_40cm.wav + truth  synthetic drop-test sound
 #   measure  results/{sample}/trajectory.nc (+ track.csv for a video)   recording -> SI trajectory
 #   overlay  results/{sample}/contact_sheet.png             a video's tracked ball drawn on its frames
 #   analyse  results/{sample}/{impacts,flights}.csv, analysis.json
@@ -24,6 +25,7 @@ configfile: "config/config.yaml"
 include: "workflow/rules/common.smk"
 include: "workflow/rules/synth.smk"
 include: "workflow/rules/synth_video.smk"
+include: "workflow/rules/synth_audio.smk"
 include: "workflow/rules/measure.smk"
 include: "workflow/rules/analyse.smk"
 include: "workflow/rules/fit.smk"

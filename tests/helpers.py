@@ -455,3 +455,32 @@ def bouncing_ball(time_s, drop_height_m, e, g=9.81):
         height[inside] = speed * tau - 0.5 * g * tau ** 2
         start, speed = start + duration, e * speed
     return height
+def with_sound_track(video_path, out_path, samples, rate_hz, sound_start_s=0.0):
+    """Copy a video's frames (re-encoded with H.264, little loss) into ``out_path`` (.mov) with a mono 16-bit PCM
+    sound track of ``samples`` (full scale 1) whose first sample is stamped ``sound_start_s`` (s) on the
+    container's clock; return ``out_path``."""
+    import fractions
+
+    import av
+
+    with av.open(str(video_path)) as source, av.open(str(out_path), "w") as container:
+        video_in = source.streams.video[0]
+        video = container.add_stream("libx264", rate=video_in.average_rate)
+        video.width, video.height, video.pix_fmt = video_in.width, video_in.height, "yuv420p"
+        video.options = {"crf": "12"}
+        sound = container.add_stream("pcm_s16le", rate=int(rate_hz), layout="mono")
+        sound.codec_context.time_base = fractions.Fraction(1, int(rate_hz))
+        for frame in source.decode(video_in):
+            picture = av.VideoFrame.from_ndarray(frame.to_ndarray(format="bgr24"), format="bgr24")
+            picture.pts, picture.time_base = frame.pts, frame.time_base
+            container.mux(video.encode(picture))
+        container.mux(video.encode())
+        pcm = np.clip(np.round(np.asarray(samples) * 32767), -32768, 32767).astype(np.int16)
+        start = int(round(sound_start_s * rate_hz))
+        for first in range(0, pcm.size, 4096):
+            block = av.AudioFrame.from_ndarray(pcm[None, first:first + 4096], format="s16", layout="mono")
+            block.sample_rate, block.pts = int(rate_hz), start + first
+            block.time_base = fractions.Fraction(1, int(rate_hz))
+            container.mux(sound.encode(block))
+        container.mux(sound.encode())
+    return out_path

@@ -47,10 +47,10 @@ REBOUND_TOL_M = 0.001  # m
 
 
 def copy_workflow(destination):
-    """Copy the Snakefile, workflow/, config/ and data/ (no results or .snakemake) to ``destination``."""
+    """Copy the Snakefile, workflow/, config/, data/ and refsim/ (no results or .snakemake) to ``destination``."""
     ignore = shutil.ignore_patterns("results", ".snakemake", "__pycache__")
     shutil.copy2(REPO / "Snakefile", destination / "Snakefile")
-    for name in ("workflow", "config", "data"):
+    for name in ("workflow", "config", "data", "refsim"):  # refsim renders the synthetic sound
         shutil.copytree(REPO / name, destination / name, ignore=ignore)
     return destination
 

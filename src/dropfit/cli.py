@@ -23,7 +23,7 @@ from pathlib import Path
 from . import stages
 from .errors import InputError, one_line, shown, shown_path
 from .files import write_failure
-from .settings import OPTIONS, OptionError, option_default, split_options
+from .settings import OPTIONS, OptionError, Settings, option_default, split_options
 
 
 def _parser():
@@ -50,13 +50,15 @@ def _parser():
 
     run = stage("run", "one recording → every file the workflow writes for it (trajectory.nc, impacts.csv, "
                        "flights.csv, analysis.json, fit.json, report.html, report.png) in --out; prints the headline")
-    run.add_argument("recording", help="height log CSV, or a video (.avi, .mp4, .mov, .mkv, .m4v)")
+    run.add_argument("recording", help="height log CSV, a video (.avi, .mp4, .mov, .mkv, .m4v), the sound of the "
+                                       "bounces (.wav, .flac, .ogg, .m4a, .aac, .mp3) or a CSV of impact times")
     run.add_argument("--out", required=True, help="directory to write the files into")
     run.add_argument("--sample-id")
     _add_options(run, "run")
 
-    measure = stage("measure", "height log (CSV) or video → trajectory (NetCDF, m)")
-    measure.add_argument("log", help="height log CSV, or a video (.avi, .mp4, .mov, .mkv, .m4v)")
+    measure = stage("measure", "height log (CSV) or video → trajectory (NetCDF, m); sound → impact times (NetCDF, s)")
+    measure.add_argument("log", help="height log CSV, a video (.avi, .mp4, .mov, .mkv, .m4v), the sound of the "
+                                     "bounces (.wav, .flac, .ogg, .m4a, .aac, .mp3) or a CSV of impact times")
     measure.add_argument("--out", required=True, help="trajectory NetCDF to write")
     measure.add_argument("--sample-id")
     measure.add_argument("--track", help="a video's tracked table to write (CSV: every frame's ball in px and its "
@@ -74,6 +76,14 @@ def _parser():
     overlay.add_argument("--tiles", type=int, help="frames on the contact sheet (default 16)")
     overlay.add_argument("--sample-id")
     _add_options(overlay, "run")
+
+    sound_video = stage("sound-video", "a video with sound: impacts heard and seen paired (CSV), the audio/video "
+                                       "offset and e from both (JSON)")
+    sound_video.add_argument("video", help="a video with a sound track (.mp4, .mov, .mkv, .avi)")
+    sound_video.add_argument("--out", required=True, help="paired impacts to write (CSV)")
+    sound_video.add_argument("--summary", required=True, help="offset and e from both to write (JSON)")
+    sound_video.add_argument("--sample-id")
+    _add_options(sound_video, "run")
 
     analyse = stage("analyse", "trajectory → impacts and flights tables (CSV) and analysis summary (JSON)")
     analyse.add_argument("trajectory")
@@ -146,6 +156,12 @@ def _run(args):
         stages.measure(args.log, args.out, ball, settings, args.sample_id, args.track)
     elif args.command == "overlay":
         stages.overlay(args.video, args.out, args.clip, args.results, ball, settings, args.sample_id, args.tiles)
+    elif args.command == "sound-video":
+        summary = stages.sound_video(args.video, args.out, args.summary, ball, settings, args.sample_id)
+        e_video, e_sound = summary["e_video"], summary["e_sound"]
+        print(f"{shown_path(args.video)}: sound − video {1e3 * summary['offset_s']:.2f} ± "
+              f"{1e3 * summary['offset_se_s']:.2f} ms over {summary['n_paired']} impacts; e video "
+              f"{e_video['value']:.4f} ± {e_video['se']:.4f}, e sound {e_sound['value']:.4f} ± {e_sound['se']:.4f}")
     elif args.command == "analyse":
         stages.analyse(args.trajectory, args.impacts, args.flights, args.summary, settings)
     elif args.command == "fit":
@@ -160,20 +176,23 @@ def _run(args):
 
 
 #: The outputs of each stage, by argument name.
-_OUTPUTS = {"measure": ["out", "track"], "overlay": ["out", "clip"], "analyse": ["impacts", "flights", "summary"], "fit": ["out"],
+_OUTPUTS = {"measure": ["out", "track"], "overlay": ["out", "clip"], "sound-video": ["out", "summary"],
+            "analyse": ["impacts", "flights", "summary"], "fit": ["out"],
             "report": ["html", "figure"], "summary": ["csv", "html"], "qc": ["html", "figure", "csv"]}
 #: Outputs a stage writes whole before a later step of it may fail, and keeps then: a clip refused after
 #: tracking keeps its tracked table, which shows why.
 _KEPT_ON_FAILURE = {"measure": ["track"]}
 #: The input each stage's messages name: the recording, the trajectory, the analysis, the fit results.
 _INPUTS = {"synth": "scenarios", "synth-video": "name", "run": "recording", "measure": "log", "overlay": "video",
+           "sound-video": "video",
            "analyse": "trajectory", "fit": "analysis", "report": "trajectory", "summary": "fits", "qc": "fits"}
 
 
 def _outputs(args):
     """The files the stage writes (``run``: the files of :func:`dropfit.stages.run_files` in ``--out``)."""
     if args.command == "run":
-        return [os.path.join(args.out, name) for name in stages.run_files(args.recording)]
+        names = stages.run_files(args.recording, Settings(kind="audio") if args.kind == "audio" else None)
+        return [os.path.join(args.out, name) for name in names]
     return [getattr(args, name) for name in _OUTPUTS.get(args.command, []) if getattr(args, name) is not None]
 
 

@@ -101,6 +101,8 @@ def fit_summary(summary, impacts, settings=None, ball_type=None):
                            summary["rest_time_s"] - summary["drop_apex_time_s"])
     if summary.get("horizontal"):  # a 2-D recording: the distance travelled while bouncing, u t∞
         theory["horizontal_distance"] = distance_check(summary["horizontal"], theory["total_bouncing_time"])
+    if summary.get("bouncing_time_note"):  # a sound recording's bouncing time ends otherwise
+        theory["total_bouncing_time"]["note"] = summary["bouncing_time_note"]
     itf = _itf(ball_type, summary, impacts, models, used, settings.itf_drop_height_m, settings.itf_rebound_min_m,
                settings.itf_rebound_max_m, settings.itf_drop_height_tolerance_m)
     resolvable = impacts["contact_resolvable"].astype(bool).to_numpy()
@@ -109,11 +111,11 @@ def fit_summary(summary, impacts, settings=None, ball_type=None):
         "k_per_m": estimate(summary["drag_k_per_m"], summary["drag_k_se_per_m"], "1/m"),
         "bic_no_drag": summary["bic_no_drag"],
         "bic_quadratic_drag": summary["bic_quadratic_drag"],
-        "why": "chosen by the Bayesian information criterion (lower wins)"
-        if np.isfinite(summary["bic_quadratic_drag"]) and np.isfinite(summary["bic_no_drag"])
-        else "fixed by the --drag option",
+        "why": summary.get("drag_why") or ("chosen by the Bayesian information criterion (lower wins)"
+                                           if np.isfinite(summary["bic_quadratic_drag"]) and np.isfinite(summary["bic_no_drag"])
+                                           else "fixed by the --drag option"),
     }
-    if summary["drag_model"] == "nominal":
+    if summary["drag_model"] == "nominal" and not summary.get("drag_why"):
         kind = ball_kind(attrs.get("ball_type"))
         drag["note"] = (f"k is not fitted freely: held at that of a smooth {kind.name} ball of this size and mass "
                         f"(C_d = {kind.drag_coefficient:g} ± {kind.drag_coefficient_se:g}) combined with what the "
@@ -190,6 +192,8 @@ def _time_base_record(attrs):
 def _contact_time(summary, resolvable_rows):
     """Whether contact times are reported, why, and, with the floor not known, the contact time at 1 m/s
     that the flights and the ball kind's prior give (the model behind the contact height)."""
+    if summary.get("contact_time_why"):  # a sound recording: the contact times are assumed, never measured
+        return {"resolvable": False, "why": summary["contact_time_why"]}
     if not resolvable_rows.empty:
         return {"resolvable": True, "n_impacts": len(resolvable_rows),
                 "why": "the floor is known, the sampling resolves the contact and each contact time stands "

@@ -581,6 +581,13 @@ def read_trajectory(path):
                          f"again") from None
     if dataset.attrs.get("status") == "failed":
         raise InputError(one_line(dataset.attrs.get("error") or f"{name}: a failure record without its message"))
+    if "impact_time_s" in dataset.data_vars:  # a sound recording's impact times (dropfit.audio)
+        times = dataset["impact_time_s"].values
+        if not np.issubdtype(times.dtype, np.number) or times.size < 3 or np.any(~np.isfinite(times)) \
+                or np.any(np.diff(times) <= 0):
+            raise InputError(f"{name}: its impact times are not three or more increasing numbers; run dropfit measure "
+                             f"again")
+        return dataset
     missing = [variable for variable in ("y", "quality") if variable not in dataset.data_vars]
     if missing or "time" not in dataset.coords or dataset["y"].dims != ("time",):
         raise InputError(f"{name}: is a NetCDF file but not a trajectory written by dropfit measure (it needs y and "

@@ -25,6 +25,7 @@ from . import __version__
 from .video import limits as video_limits
 from .analysis import analyse_bounces
 from .analysis.horizontal import add_horizontal
+from .audio.recording import analyse_sound, is_sound_dataset, is_sound_recording, sound_trajectory
 from .balls import ball_kind
 from .errors import InputError, shown_path
 from .files import sha256_of
@@ -38,7 +39,8 @@ from .videolog import VIDEO_SUFFIXES, is_video, scale_targets_of, trajectory_fro
 #: Settings that apply to measuring a recording, not to an already measured trajectory.
 MEASURE_ONLY_SETTINGS = ("scale_m_per_px", "ruler_tick_m", "scale_points_px", "scale_distance_m", "marker_size_m",
                          "board_square_m", "board_inner_corners", "capture_fps", "ball_radius_px", "roi_px",
-                         "ball_at_px", "format", "fps", "track_id", "columns", "sensor_height_m")
+                         "ball_at_px", "format", "fps", "track_id", "columns", "sensor_height_m", "kind",
+                         "release_time_s")
 
 
 def track_recording(path, settings=None, ball=None):
@@ -76,13 +78,33 @@ def track_recording(path, settings=None, ball=None):
                                       expected_radius_px=settings.ball_radius_px, hints=hints)
 
 
+def recording_kind(path, settings=None):
+    """What a recording is, ``height_log``, ``video`` or ``audio``: the settings' ``kind`` when given (a
+    video given as ``audio`` is measured by its sound track), else told by the file's suffix and header.
+
+    Raises
+    ------
+    dropfit.errors.InputError
+        For a kind the file cannot be (a height log that is a video or a sound file, a video that is not).
+    """
+    told = "video" if is_video(path) else "audio" if is_sound_recording(path) else "height_log"
+    kind = (settings or Settings()).kind or told
+    if kind != told and not (kind == "audio" and told == "video"):
+        raise InputError(f"{shown_path(path)}: is given as kind {kind} but reads as {told.replace('_', ' ')} (by its "
+                         f"suffix and header); give the kind of the file, or the file of that kind")
+    return kind
+
+
 def measure_recording(path, ball=None, settings=None, *, sample_id=None, tracked=None):
-    """Height log or video → trajectory (heights in m, up; dropouts flagged), without writing a file.
+    """Height log or video → trajectory (heights in m, up; dropouts flagged), without writing a file; a
+    sound file or a table of impact times → the impact times (:func:`dropfit.audio.recording.sound_trajectory`).
 
     Parameters
     ----------
     path : str or pathlib.Path
-        A height log (CSV) or a video (:data:`dropfit.videolog.VIDEO_SUFFIXES`).
+        A height log (CSV), a video (:data:`dropfit.videolog.VIDEO_SUFFIXES`), a sound file
+        (:data:`dropfit.audio.decode.AUDIO_SUFFIXES`) or a table of impact times
+        (:func:`dropfit.audio.tables.is_impact_table`).
     ball : dropfit.settings.Ball, optional
         The ball (radius in m, mass in kg, kind); default: nothing known.
     settings : dropfit.settings.Settings, optional
@@ -112,11 +134,17 @@ def measure_recording(path, ball=None, settings=None, *, sample_id=None, tracked
              "ball_type": ball.type, "floor_m": settings.floor_m, "dropfit_version": __version__,
              "gravity_m_s2": gravity.value_m_s2, "gravity_se_m_s2": gravity.se_m_s2, "gravity_source": gravity.source}
     scale = settings.scale_m_per_px
-    if is_video(path):
+    kind = recording_kind(path, settings)
+    if settings.release_time_s is not None and kind != "audio":
+        raise InputError(f"{shown_path(path)}: release_time_s applies to a sound recording; a log or a video shows "
+                         f"the release itself: leave it out")
+    if kind == "video":
         tracked = tracked if tracked is not None else track_recording(path, settings, ball)
         trajectory = trajectory_from_video(path, ball.radius_m, scale and abs(scale), settings.capture_fps,
                                            gravity.value_m_s2, attrs, settings.ruler_tick_m,
                                            scale_targets_of(settings), tracked)
+    elif kind == "audio":
+        trajectory = sound_trajectory(path, attrs, settings.release_time_s)
     else:
         trajectory = trajectory_from_log(path, scale_m_per_px=scale, gravity_m_s2=gravity.value_m_s2, attrs=attrs,
                                          height_reference=settings.height_reference,
@@ -216,6 +244,12 @@ def analyse_trajectory(trajectory, settings=None, source=None):
     attrs = dict(trajectory.attrs)
     if source is not None:
         attrs.setdefault("source", str(source))
+    if is_sound_dataset(trajectory):
+        analysis = analyse_sound(trajectory.assign_attrs(attrs), settings.site_gravity(), settings.drag,
+                                 nominal_drag_of(attrs))
+        record = {"drag": settings.drag, "nominal_drag_k_per_m": analysis.summary["drag_k_per_m"]}
+        summary = dict(analysis.summary, analysis_options=record, gravity=settings.site_gravity().record())
+        return dataclasses.replace(analysis, summary=summary)
     time = trajectory["time"].values
     interval = float(np.median(np.diff(time))) if time.size > 1 else 0.0
     options = analysis_options(attrs, settings, interval)

@@ -239,6 +239,34 @@ def speed_panel(fit, impacts, n_grid=200):
     return panel
 
 
+def _decimal_log_axis(axes):
+    """A logarithmic y axis with plain decimal tick labels (0.5, 1, 2) rather than powers of ten such as 2×10⁰."""
+    axes.set_yscale("log")
+    axes.yaxis.set_major_locator(matplotlib.ticker.LogLocator(subs=(1.0, 2.0, 5.0)))
+    axes.yaxis.set_major_formatter(matplotlib.ticker.FuncFormatter(lambda value, _: f"{value:g}"))
+    axes.yaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
+
+
+def _draw_speed_panel(ax_e, fit, impacts):
+    """Draw panel (c), e per impact against its speed and the chosen law (:func:`speed_panel`), on ``ax_e``."""
+    panel = speed_panel(fit, impacts)
+    fitted, left_out = panel["in_fit"], ~panel["in_fit"]
+    ax_e.errorbar(panel["speed_m_s"][fitted], panel["e"][fitted], yerr=panel["e_ci95_half"][fitted], fmt="o", ms=4,
+                  capsize=3, color="tab:blue", label="per impact (±1.96 se)")
+    if left_out.any():
+        ax_e.errorbar(panel["speed_m_s"][left_out], panel["e"][left_out], yerr=panel["e_ci95_half"][left_out],
+                      fmt="o", ms=4, capsize=3, color="tab:blue", mfc="white", label="left out of the fits")
+    curve = panel["curve"]
+    if curve:
+        ax_e.plot(curve["speed_m_s"], curve["e"], "-", color="tab:orange", lw=1.2, label=curve["label"])
+        ax_e.fill_between(curve["speed_m_s"], curve["low"], curve["high"], color="tab:orange", alpha=0.25,
+                          label=curve["band_label"])
+    ax_e.set_xlabel("impact speed $v_\\mathrm{in}$ (m/s)")
+    ax_e.set_ylabel("coefficient of restitution e (1)")
+    ax_e.set_title(panel["title"], loc="left")
+    ax_e.legend(loc="best", fontsize=8)
+
+
 def _figure_png(trajectory, flights, impacts, analysis, fit):
     """The four-panel report figure as PNG bytes."""
     t = trajectory["time"].values
@@ -277,22 +305,7 @@ def _figure_png(trajectory, flights, impacts, analysis, fit):
     ax_res.set_ylabel("residual (mm)")
     ax_res.set_title(f"(b) fit residuals (noise {1e3 * analysis['noise_m']:.2g} mm)", loc="left")
 
-    panel = speed_panel(fit, impacts)
-    fitted, left_out = panel["in_fit"], ~panel["in_fit"]
-    ax_e.errorbar(panel["speed_m_s"][fitted], panel["e"][fitted], yerr=panel["e_ci95_half"][fitted], fmt="o", ms=4,
-                  capsize=3, color="tab:blue", label="per impact (±1.96 se)")
-    if left_out.any():
-        ax_e.errorbar(panel["speed_m_s"][left_out], panel["e"][left_out], yerr=panel["e_ci95_half"][left_out],
-                      fmt="o", ms=4, capsize=3, color="tab:blue", mfc="white", label="left out of the fits")
-    curve = panel["curve"]
-    if curve:
-        ax_e.plot(curve["speed_m_s"], curve["e"], "-", color="tab:orange", lw=1.2, label=curve["label"])
-        ax_e.fill_between(curve["speed_m_s"], curve["low"], curve["high"], color="tab:orange", alpha=0.25,
-                          label=curve["band_label"])
-    ax_e.set_xlabel("impact speed $v_\\mathrm{in}$ (m/s)")
-    ax_e.set_ylabel("coefficient of restitution e (1)")
-    ax_e.set_title(panel["title"], loc="left")
-    ax_e.legend(loc="best", fontsize=8)
+    _draw_speed_panel(ax_e, fit, impacts)
 
     heights = pd.DataFrame(fit["theory"]["heights"])
     h0 = fit["drop_height_m"]
@@ -302,17 +315,66 @@ def _figure_png(trajectory, flights, impacts, analysis, fit):
                   color="tab:blue", label="measured apex $h_n$")
     ax_h.plot(bounce, np.concatenate([[h0["value"]], heights["predicted_m"]]), "-", color="tab:orange",
               label="$e^{2n} h_0$ (constant e, no drag)")
-    ax_h.set_yscale("log")
-    # plain decimal tick labels (0.5, 1, 2) rather than powers of ten such as 2×10⁰
-    ax_h.yaxis.set_major_locator(matplotlib.ticker.LogLocator(subs=(1.0, 2.0, 5.0)))
-    ax_h.yaxis.set_major_formatter(matplotlib.ticker.FuncFormatter(lambda value, _: f"{value:g}"))
-    ax_h.yaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
+    _decimal_log_axis(ax_h)
     ax_h.set_xlabel("bounce number n (count)")
     ax_h.set_ylabel("apex height above contact $h_n$ (m)")
     ax_h.set_title("(d) apex heights", loc="left")
     ax_h.xaxis.get_major_locator().set_params(integer=True)
     ax_h.legend(loc="best", fontsize=8)
 
+    return _png_bytes(fig)
+
+
+def _sound_figure_png(trajectory, impacts, fit):
+    """The report figure of a sound recording (PNG bytes): (a) the click envelope with the impacts heard
+    and the clicks left out, (b) the flight times, (c) e per impact against speed, (d) the rises."""
+    fig = plt.figure(figsize=(13, 9), layout="constrained")
+    grid = fig.add_gridspec(2, 3, height_ratios=[1, 1])
+    ax_sound = fig.add_subplot(grid[0, :])
+    ax_flight, ax_e, ax_h = (fig.add_subplot(grid[1, column]) for column in range(3))
+    fig.suptitle(f"dropfit: {shown(fit.get('sample_id') or trajectory.attrs.get('sample_id', ''))}", fontsize=14,
+                 parse_math=False)
+    times = trajectory["impact_time_s"].values
+    if "envelope" in trajectory:
+        envelope = trajectory["envelope"].values
+        ax_sound.plot(trajectory["time"].values, envelope, "-", lw=0.6, color="0.35", label="click envelope")
+        left_out = trajectory["candidate_time_s"].values[trajectory["candidate_selected"].values == 0]
+        top = float(envelope.max())
+        ax_sound.plot(left_out, np.full(left_out.size, 1.05 * top), "v", ms=5, color="tab:orange",
+                      label=f"clicks left out: echoes, double clicks, noise ({left_out.size})")
+        ax_sound.plot(times, np.full(times.size, 1.12 * top), "v", ms=6, color="tab:blue",
+                      label=f"impacts heard ({times.size})")
+        ax_sound.set_ylim(top=1.35 * top)
+        ax_sound.set_ylabel("envelope (full scale 1)")
+        ax_sound.set_xlabel("time (s)")
+        ax_sound.set_title("(a) the sound: impacts timed at their onsets", loc="left")
+        ax_sound.legend(loc="upper right", fontsize=8, ncols=3)
+    else:
+        ax_sound.plot(times, np.ones(times.size), "|", ms=30, color="tab:blue", label="impact times given")
+        ax_sound.set_xlabel("time (s)")
+        ax_sound.set_yticks([])
+        ax_sound.set_title("(a) the impact times of the table", loc="left")
+    flight = impacts["flight_time_after_s"].to_numpy(dtype=float)
+    ax_flight.errorbar(impacts["impact"], 1e3 * flight, yerr=1e3 * Z95 * impacts["flight_time_after_se_s"], fmt="o",
+                       ms=3, capsize=2, color="tab:blue")
+    ax_flight.set_xlabel("impact n (count)")
+    ax_flight.set_ylabel("flight time after impact n (ms)")
+    ax_flight.set_title("(b) flight times (±1.96 se)", loc="left")
+
+    _draw_speed_panel(ax_e, fit, impacts)
+
+    rise, rise_se = impacts["h_after_m"].to_numpy(dtype=float), impacts["h_after_se_m"].to_numpy(dtype=float)
+    ax_h.errorbar(impacts["impact"], 1e3 * rise, yerr=1e3 * Z95 * rise_se, fmt="o", ms=4, capsize=3, color="tab:blue",
+                  label="rise after impact n (from its flight time)")
+    drop = fit.get("drop_height_m") or {}
+    if drop.get("value") is not None and np.isfinite(drop["value"]):
+        ax_h.errorbar([0], [1e3 * drop["value"]], yerr=[1e3 * Z95 * drop["se"]], fmt="s", ms=5, capsize=3,
+                      color="tab:green", label="drop (from the release)")
+    _decimal_log_axis(ax_h)
+    ax_h.set_xlabel("impact n (count)")
+    ax_h.set_ylabel("rise above the contact height (mm)")
+    ax_h.set_title("(d) rebound heights", loc="left")
+    ax_h.legend(loc="best", fontsize=8)
     return _png_bytes(fig)
 
 
@@ -671,10 +733,13 @@ def recording_report_html(trajectory, flights, impacts, fit, png, contact_sheet_
          if "vx_in_m_s" in impacts else []) + [
         ("Figure", _png_img(png, f"dropfit figure for {sample_id}")),
     ]
-    return _html_page(f"dropfit report: {sample_id}",
-                      f"<p>Heights are of the ball centre above the contact height "
-                      f"({escape(_estimate(fit.get('contact_height_m'), 'm'))} above the sensor zero); "
-                      f"{len(flights)} flights fitted.</p>", _sections_html(sections))
+    intro = (f"<p>Impacts heard in the sound ({len(impacts)}); every flight's time is the interval between two "
+             f"impacts less a contact time, and its rise and speeds follow from it with the ball's drag.</p>"
+             if "impact_time_s" in trajectory else
+             f"<p>Heights are of the ball centre above the contact height "
+             f"({escape(_estimate(fit.get('contact_height_m'), 'm'))} above the sensor zero); "
+             f"{len(flights)} flights fitted.</p>")
+    return _html_page(f"dropfit report: {sample_id}", intro, _sections_html(sections))
 
 
 def write_recording_report(trajectory, flights, impacts, analysis, fit, html_path, figure_path, contact_sheet_png=None):
@@ -684,7 +749,8 @@ def write_recording_report(trajectory, flights, impacts, analysis, fit, html_pat
     ----------
     trajectory : xarray.Dataset
         Dimension ``time`` (s); ``y`` (m, ball centre above the sensor zero, NaN at dropouts) and
-        ``quality`` (0 ok, 1 dropout).
+        ``quality`` (0 ok, 1 dropout); or a sound recording's impact times
+        (:func:`dropfit.audio.recording.sound_trajectory`).
     flights, impacts : pandas.DataFrame
         Flights and impacts tables written by the analyse stage.
     analysis : dict
@@ -696,7 +762,9 @@ def write_recording_report(trajectory, flights, impacts, analysis, fit, html_pat
     contact_sheet_png : bytes, optional
         A video's contact sheet (PNG, :func:`dropfit.stages.overlay`), shown in the report.
     """
-    png = _figure_png(trajectory, flights, impacts, analysis, fit)
+    sound = "impact_time_s" in trajectory
+    png = _sound_figure_png(trajectory, impacts, fit) if sound else _figure_png(trajectory, flights, impacts, analysis,
+                                                                                  fit)
     path_png = _path_png(trajectory, flights, analysis, fit) if "x" in trajectory and "vx_in_m_s" in impacts else None
     with atomic_output(figure_path) as tmp:
         tmp.write_bytes(png)

@@ -226,6 +226,12 @@ OPTIONS = {option.name: option for option in (
            "the sensor's height above the floor in m", 0.0, 100.0, False, column=True),
     Option("capture_fps", "capture rate in frames/s of a slow-motion video whose file states another rate",
            _MEASURE, "the capture rate in frames/s", 0.0, math.inf, False, column=True),
+    Option("kind", "what the recording is: height_log, video or audio (default: told by the file's suffix and "
+           "header); audio for a video measures its sound track", _MEASURE,
+           choices=("height_log", "video", "audio"), text=True, column=True),
+    Option("release_time_s", "audio: time in s on the recording's clock at which the ball was released at rest "
+           "(gives the drop height, the first impact's e and the total bouncing time)", _MEASURE,
+           "the release time in s from the start of the recording", 0.0, column=True),
     Option("gravity_m_s2", "gravity at the site in m/s² (wins over --latitude-deg); default: not known, "
            "standard gravity with the ±0.3 % spread over the Earth", _SITE, "gravity in m/s² (9.80665 on Earth)",
            0.0, 100.0, False, config=("gravity_m_s2",), column=True),
@@ -378,6 +384,12 @@ class Settings:
     ball_at_px : (int, float, float), optional
         Video: the ball's centre (x, y in px) in one frame (index from 0): tracking starts there.
         Default None: the ball is searched for.
+    kind : {"height_log", "video", "audio"}, optional
+        What the recording is; ``audio`` for a video measures its sound track (the sample sheet's
+        ``kind``). Default None: told by the file's suffix and header.
+    release_time_s : float, optional
+        Audio: when the ball was let go at rest, in s on the recording's clock (taken as exact). Default
+        None: the fall is not heard, so the drop height and the first impact's e are not measured.
     gravity_m_s2 : float, optional
         g at the site in m/s², taken as exact. It wins over ``latitude_deg``. Default None: see
         :meth:`site_gravity`.
@@ -420,6 +432,8 @@ class Settings:
     ball_radius_px: float | None = None
     roi_px: tuple | None = None
     ball_at_px: tuple | None = None
+    kind: str | None = None
+    release_time_s: float | None = None
     gravity_m_s2: float | None = None
     latitude_deg: float | None = None
     altitude_m: float | None = None

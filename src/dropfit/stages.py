@@ -174,9 +174,11 @@ RUN_FILES = ("trajectory.nc", "impacts.csv", "flights.csv", "analysis.json", "fi
 VIDEO_RUN_FILES = ("track.csv", "contact_sheet.png")
 
 
-def run_files(recording):
-    """The names of the files ``dropfit run`` writes for ``recording`` (a path)."""
-    return RUN_FILES + (VIDEO_RUN_FILES if is_video(recording) else ())
+def run_files(recording, settings=None):
+    """The names of the files ``dropfit run`` writes for ``recording`` (a path; a video's sound track
+    measured, ``kind`` audio, writes no tracked table)."""
+    tracked = is_video(recording) and (settings is None or settings.kind != "audio")
+    return RUN_FILES + (VIDEO_RUN_FILES if tracked else ())
 
 
 def run(recording, out_dir, ball=None, settings=None, sample_id=None):
@@ -189,14 +191,15 @@ def run(recording, out_dir, ball=None, settings=None, sample_id=None):
     dropfit.result.RecordingResult
         The result (:func:`dropfit.pipeline.process_recording`); ``fit.json`` is its ``to_dict()``.
     """
-    video = isinstance(recording, (str, os.PathLike)) and is_video(recording)
+    video = isinstance(recording, (str, os.PathLike)) and is_video(recording) and (settings is None
+                                                                                   or settings.kind != "audio")
     tracked = track_recording(recording, settings, ball) if video else None
     result = process_recording(recording, ball, settings, sample_id=sample_id, tracked=tracked)
     say_how_read(result.trajectory)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(prefix=".dropfit-run.", dir=out) as directory:
-        made = {name: Path(directory) / name for name in (run_files(recording) if video else RUN_FILES)}
+        made = {name: Path(directory) / name for name in (run_files(recording, settings) if video else RUN_FILES)}
         write_trajectory(made["trajectory.nc"], result.trajectory)
         write_analysis(result.analysis, result.trajectory.attrs, made["impacts.csv"], made["flights.csv"],
                        made["analysis.json"])
@@ -210,6 +213,17 @@ def run(recording, out_dir, ball=None, settings=None, sample_id=None):
         for name, path in made.items():
             os.replace(path, out / name)
     return result
+
+
+def sound_video(video, pairs_path, summary_path, ball=None, settings=None, sample_id=None):
+    """A video with sound: the impacts heard and seen, paired (CSV), and the audio/video offset with e from
+    both (JSON) (:func:`dropfit.audio.compare.compare_sound_and_video`)."""
+    from .audio.compare import compare_sound_and_video
+
+    pairs, summary = compare_sound_and_video(video, ball, settings, sample_id)
+    write_table(pairs_path, pairs)
+    write_json(summary_path, summary)
+    return summary
 
 
 def write_trajectory(path, trajectory):

@@ -47,6 +47,8 @@ refsim_recordings = ["seed_example3_oblique"]
 #: Where rule synth_video renders the default synthetic videos.
 VIDEO_DIR = "results/video"
 video_clips = list(default_clips())
+#: Where rule synth_audio renders the synthetic drop-test sound.
+AUDIO_DIR = "results/audio"
 
 
 def _alternatives(names):
@@ -57,8 +59,10 @@ def _alternatives(names):
 from dropfit.videolog import is_video
 
 #: Samples whose recording is a video: its measure job also writes the tracked table (track.csv), and
-#: an overlay job draws what was tracked on its frames (contact_sheet.png), refused clips included.
-video_samples = [sample for sample in samples.index if is_video(samples.loc[sample, "path"])]
+#: an overlay job draws what was tracked on its frames (contact_sheet.png), refused clips included; a
+#: video of kind audio is measured by its sound track.
+video_samples = [sample for sample in samples.index
+                 if is_video(samples.loc[sample, "path"]) and samples.loc[sample, "kind"] != "audio"]
 log_samples = [sample for sample in samples.index if sample not in video_samples]
 
 
@@ -123,7 +127,7 @@ def measure_input(wildcards):
     """
     path = recording_path(wildcards)
     synthetic = {f"data/synthetic/{name}.csv" for name in synthetic_recordings + refsim_recordings}
-    synthetic |= {f"{VIDEO_DIR}/{clip}.avi" for clip in video_clips}
+    synthetic |= {f"{VIDEO_DIR}/{clip}.avi" for clip in video_clips} | {f"{AUDIO_DIR}/table_tennis_40cm.wav"}
     if os.path.exists(path) or os.path.normpath(path) in synthetic:
         return path
     return []

@@ -1,0 +1,144 @@
+"""Sound from a file: samples (full scale ±1, channels kept) and the sample rate.
+
+WAV, FLAC and OGG are read with soundfile (libsndfile: exact samples, no resampling). M4A, AAC, MP3,
+Opus and the sound track of a video are decoded with PyAV (FFmpeg), already dropfit's video decoder:
+it decodes in-process and gives each decoded block's time stamp, so the samples are placed on the
+container's clock (the clock of the video's frames) rather than counted from zero.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import InputError, shown_path
+
+#: Suffixes read with soundfile.
+SOUNDFILE_SUFFIXES = (".wav", ".flac", ".ogg", ".oga")
+#: Suffixes of sound-only files decoded with PyAV.
+PYAV_SUFFIXES = (".m4a", ".aac", ".mp3", ".opus", ".wma", ".caf")
+#: Every suffix of a sound file dropfit reads.
+AUDIO_SUFFIXES = SOUNDFILE_SUFFIXES + PYAV_SUFFIXES
+#: A recording shorter than this has no bounce to hear, s.
+MIN_DURATION_S = 0.05
+
+
+@dataclass
+class Sound:
+    """Decoded sound.
+
+    Attributes
+    ----------
+    samples : numpy.ndarray
+        Shape (n, channels), float64, full scale ±1.
+    rate_hz : float
+        Samples per second.
+    start_s : float
+        Time of the first sample on the file's clock (s; 0 for WAV/FLAC/OGG, the stream's first time
+        stamp for a container).
+    codec : str
+        What was decoded (format and subtype, or the codec's name).
+    """
+
+    samples: np.ndarray
+    rate_hz: float
+    start_s: float = 0.0
+    codec: str = ""
+
+    @property
+    def duration_s(self):
+        """Length of the recording in s."""
+        return self.samples.shape[0] / self.rate_hz
+
+
+def is_audio(path):
+    """True if ``path`` names a sound file (by its suffix)."""
+    return str(path).lower().endswith(AUDIO_SUFFIXES)
+
+
+def read_sound(path):
+    """Decode a sound file, or the sound track of a video, to :class:`Sound`.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        A sound file (:data:`AUDIO_SUFFIXES`) or a video with a sound track.
+
+    Raises
+    ------
+    dropfit.errors.InputError
+        For a missing, empty, damaged or silent file, or a video without sound.
+    """
+    name = shown_path(path)
+    try:
+        with open(path, "rb") as handle:
+            head = handle.read(16)
+    except OSError as error:
+        raise InputError(f"{name}: cannot be read ({error.strerror or error}); check the path") from None
+    if not head:
+        raise InputError(f"{name}: the file is empty (0 bytes): not a recording; copy or export it again")
+    if str(path).lower().endswith(SOUNDFILE_SUFFIXES):
+        sound = _read_with_soundfile(path, name)
+    else:
+        sound = _read_with_pyav(path, name)
+    if sound.samples.shape[0] < MIN_DURATION_S * sound.rate_hz:
+        raise InputError(f"{name}: the recording lasts {sound.duration_s:.3g} s, too short to hold a bounce; "
+                         f"record the whole drop")
+    if not np.all(np.isfinite(sound.samples)):
+        raise InputError(f"{name}: the sound holds samples that are not numbers (NaN or infinite); export it again")
+    return sound
+
+
+def _read_with_soundfile(path, name):
+    import soundfile
+
+    try:
+        samples, rate = soundfile.read(str(path), dtype="float64", always_2d=True)
+        info = soundfile.info(str(path))
+    except (RuntimeError, soundfile.LibsndfileError, ValueError) as error:
+        raise InputError(f"{name}: cannot be read as sound: the file is damaged or not a {str(path).rsplit('.', 1)[-1]} "
+                         f"file ({str(error).splitlines()[0] if str(error) else type(error).__name__}); export it again") \
+            from None
+    return Sound(samples=samples, rate_hz=float(rate), codec=f"{info.format} {info.subtype}")
+
+
+def _read_with_pyav(path, name):
+    import av
+
+    try:
+        container = av.open(str(path))
+    except (av.FFmpegError, OSError) as error:
+        raise InputError(f"{name}: cannot be opened: the file is damaged or not a sound or video file "
+                         f"({type(error).__name__}); export it again") from None
+    with container:
+        if not container.streams.audio:
+            raise InputError(f"{name}: has no sound track; record with sound, or give the sound file")
+        stream = container.streams.audio[0]
+        blocks, start = [], None
+        try:
+            for frame in container.decode(stream):
+                if start is None and frame.pts is not None and frame.time_base is not None:
+                    start = float(frame.pts * frame.time_base)
+                block = frame.to_ndarray()
+                # planar formats give (channels, n); packed ones (1, n × channels)
+                block = block.T if frame.format.is_planar else block.reshape(-1, len(frame.layout.channels))
+                blocks.append(_full_scale(block))
+                rate = frame.sample_rate
+        except av.FFmpegError as error:
+            if not blocks:
+                raise InputError(f"{name}: its sound track cannot be decoded ({type(error).__name__}); export it "
+                                 f"again") from None
+        if not blocks:
+            raise InputError(f"{name}: its sound track is empty; record with sound")
+        codec = stream.codec_context.name
+    return Sound(samples=np.concatenate(blocks), rate_hz=float(rate), start_s=start or 0.0, codec=codec)
+
+
+def _full_scale(block):
+    """Samples as float64, full scale ±1 (integer formats divided by their largest value)."""
+    if np.issubdtype(block.dtype, np.integer):
+        info = np.iinfo(block.dtype)
+        half = (info.max + 1) / 2 if info.min == 0 else info.max + 1.0  # unsigned 8-bit is centred on 128
+        return (block.astype(np.float64) - (half if info.min == 0 else 0.0)) / half
+    return block.astype(np.float64)

@@ -1,0 +1,124 @@
+"""Tables of impact times: a CSV of the times a ball was heard to hit the floor, or the export of
+phyphox's "(In)elastic collision" experiment.
+
+A CSV of times names its unit in the column: ``impact_time_s`` or ``impact_time_ms``, optionally with
+``impact_time_se_s`` / ``impact_time_se_ms`` (standard errors); other columns are ignored.
+
+phyphox's "(In)elastic collision" experiment exports the set "Energy" with the columns
+``Bounce 0 (s)`` … ``Bounce 5 (s)`` (each the time of the loudest sample of a sound above the
+threshold), ``Height n (m)`` and ``Energy n``; an impact not heard is 0 or empty. phyphox writes CSV with
+a comma, a tab or a semicolon (then with decimal commas) between the columns; all three are read.
+"""
+
+from __future__ import annotations
+
+import re
+
+import numpy as np
+import pandas as pd
+
+from ..errors import InputError, shown, shown_path
+
+#: Suffixes a table of impact times may have.
+TABLE_SUFFIXES = (".csv", ".tsv", ".txt")
+#: Standard error given to times without one when too few of them to measure their scatter, s: the
+#: loudest sample of a click (what phyphox and most tools report) lags its onset by a varying fraction
+#: of a millisecond to a few (benchmarks/audio_onsets.py measures it).
+DEFAULT_TABLE_SE_S = 1.0e-3
+_PHYPHOX = re.compile(r"^\s*bounce\s+(\d+)\s*\(s\)\s*$", re.IGNORECASE)
+_UNITS = {"impact_time_s": 1.0, "impact_time_ms": 1e-3}
+
+
+#: The most of a header line looked at to tell a table of impact times from a height log, characters.
+HEADER_PEEK_CHARS = 65536
+_TIME_COLUMN = re.compile(r"(?:^|[,;\t\"\s])impact_time_m?s(?:[,;\t\"\s]|$)", re.IGNORECASE)
+_PHYPHOX_IN_HEADER = re.compile(r"bounce\s+\d+\s*\(s\)", re.IGNORECASE)
+
+
+def _header(path, limit=None):
+    """The first line that is not empty or a comment (at most ``limit`` characters of it)."""
+    try:
+        with open(path, "r", encoding="utf-8-sig", errors="replace") as handle:
+            while True:
+                line = handle.readline(limit or -1)
+                if not line:
+                    return ""
+                if line.strip() and not line.lstrip().startswith("#"):
+                    return line
+    except OSError:
+        return ""
+
+
+def is_impact_table(path):
+    """True if ``path`` is a table of impact times (a CSV naming ``impact_time_s``/``_ms``, or a phyphox
+    "(In)elastic collision" export), judged by its suffix and the start of its header line (a height
+    log's header of a million columns is not read whole)."""
+    if not str(path).lower().endswith(TABLE_SUFFIXES):
+        return False
+    header = _header(path, HEADER_PEEK_CHARS)
+    return bool(_TIME_COLUMN.search(header) or _PHYPHOX_IN_HEADER.search(header))
+
+
+def read_impact_table(path):
+    """Impact times (s) and their standard errors (s; NaN where the table gives none) from a table.
+
+    Returns
+    -------
+    (numpy.ndarray, numpy.ndarray, str)
+        Times, standard errors, and what the table was (``"phyphox"`` or ``"csv"``).
+
+    Raises
+    ------
+    dropfit.errors.InputError
+        For a table without times, with a time that is not a number, or with times not increasing.
+    """
+    name = shown_path(path)
+    header = _header(path)
+    separator = ";" if header.count(";") > max(header.count(","), header.count("\t")) else \
+        "\t" if header.count("\t") > header.count(",") else ","
+    try:
+        table = pd.read_csv(path, sep=separator, comment="#", decimal="," if separator == ";" else ".",
+                            skipinitialspace=True)
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError, OSError) as error:
+        raise InputError(f"{name}: cannot be read as a table of impact times ({type(error).__name__}); export it "
+                         f"again as CSV") from None
+    table.columns = [str(column).strip() for column in table.columns]
+    bounces = {int(match.group(1)): column for column in table.columns if (match := _PHYPHOX.match(column))}
+    if bounces:
+        if table.empty:
+            raise InputError(f"{name}: the phyphox export has no row of times; export the experiment after a drop")
+        row = table.iloc[-1]
+        values = [pd.to_numeric(row[bounces[number]], errors="coerce") for number in sorted(bounces)]
+        times = np.array([value for value in values if np.isfinite(value) and value > 0], dtype=float)
+        kind, se = "phyphox", np.full(times.size, np.nan)
+    else:
+        columns = {column.lower(): column for column in table.columns}
+        unit_column = next((column for column in _UNITS if column in columns), None)
+        if unit_column is None:
+            raise InputError(f"{name}: no column of impact times; name it impact_time_s or impact_time_ms")
+        times = _numbers(table[columns[unit_column]], name, columns[unit_column]) * _UNITS[unit_column]
+        se_column = unit_column.replace("_time_", "_time_se_")
+        se = (_numbers(table[columns[se_column]], name, columns[se_column]) * _UNITS[unit_column]
+              if se_column in columns else np.full(times.size, np.nan))
+        kind = "csv"
+    if np.any(np.diff(times) <= 0):
+        bad = int(np.flatnonzero(np.diff(times) <= 0)[0])
+        raise InputError(f"{name}: the impact times do not increase (row {bad + 2} is {times[bad + 1]:g} s after "
+                         f"{times[bad]:g} s); sort them, one impact per row")
+    if np.any(se[np.isfinite(se)] < 0):
+        raise InputError(f"{name}: a standard error of an impact time is negative; give it as a positive number")
+    return times, se, kind
+
+
+def _numbers(column, name, label):
+    """A column's values as floats (empty cells dropped), or InputError naming the first that is not a number."""
+    column = column.dropna()
+    values = pd.to_numeric(column, errors="coerce")
+    if values.isna().any():
+        row = int(np.flatnonzero(values.isna().to_numpy())[0])
+        raise InputError(f"{name}: column {shown(label, 30)} has a value that is not a number "
+                         f"('{shown(column.iloc[row])}'); give times as numbers")
+    values = values.to_numpy(dtype=float)
+    if not np.all(np.isfinite(values)):
+        raise InputError(f"{name}: column {shown(label, 30)} has a value that is not finite; give times as numbers")
+    return values
