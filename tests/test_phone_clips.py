@@ -93,7 +93,7 @@ def test_phone_clip_ball_is_tracked_in_colour(tmp_path, preset, seed, min_fracti
     """The ball a phone films (green on a white board with its shadow touching it and a hand catching it;
     yellow on a green wall; white on a light grey wall, portrait with rotation metadata) is tracked in
     most of the frames where it is in view, free of the hand, within half a pixel of the truth once a
-    constant offset (the shaded ball's colour centroid, at most 1.5 px) is taken out."""
+    constant offset (the shaded ball's colour centroid, lit from above: at most 2 px) is taken out."""
     path, _ = phone_clip(preset, tmp_path, seed=seed, downscale=0.5)
     truth = pd.read_csv(path.with_suffix(".frames.csv"))
     table = track_video(path, progress_stream=io.StringIO())
@@ -111,5 +111,5 @@ def test_phone_clip_ball_is_tracked_in_colour(tmp_path, preset, seed, min_fracti
               f"usable, offset ({offset[0]:.2f}, {offset[1]:.2f}) px, scatter RMS {np.sqrt(np.mean(scatter ** 2)):.3f} "
               f"px, max {scatter.max():.2f} px")
     assert usable.sum() >= min_fraction * visible.sum()
-    assert np.hypot(*offset) <= 1.5
+    assert np.hypot(*offset) <= 2.0
     assert np.sqrt(np.mean(scatter ** 2)) <= 0.5

@@ -50,6 +50,9 @@ SAMPLE_STRIDE_PX = 8
 #: key frames, and a codec renders the frames between them with colour errors of several levels that
 #: key frames do not show.
 MIN_COLOUR_THRESHOLD = 12.0
+#: The ball's chroma against a pixel's background counts as at least this fraction of its median over
+#: the window (a background of the ball's own hue would make the scaled contrast noise).
+MIN_BALL_CHROMA_FRACTION = 0.25
 #: Neighbourhood whose darkest shade is a pixel's background in ``brighter``.
 SHADE_NEIGHBOURHOOD = np.ones((3, 3), np.uint8)
 #: Background colour vectors shorter than this (grey levels) have no direction to measure along.
@@ -105,21 +108,24 @@ class Contrast:
         image, background = self.images(frame, background_grey, background_colour, gain)
         return image - background
 
-    def images(self, frame, background_grey, background_colour, gain=1.0):
+    def images(self, frame, background_grey, background_colour, gain=1.0, ball_bgr=None):
         """The frame and the background in this channel, float32, for :func:`dropfit.video.detect.measure_ball`.
 
         ``grey`` gives the grey levels of both, so that the ball's coverage of each pixel is
         measured against that pixel's own background on a textured scene; a colour channel gives
-        its contrast image and zeros. A hand (:func:`hand_pixels`) is taken out: its pixels are
-        given the background's value. Parameters as :meth:`image`; ``background_colour`` may be
-        given for ``grey`` too (then a hand is taken out of it as well).
+        its contrast image and zeros. With the ball's colour ``ball_bgr`` known (BGR levels),
+        ``chroma`` is scaled pixel by pixel to the ball's own chroma against that pixel's
+        background (:func:`chroma_contrast`), so that a ball passing from a wall to a floor of
+        another colour is covered alike on both. A hand (:func:`hand_pixels`) is taken out: its
+        pixels are given the background's value. Parameters as :meth:`image`;
+        ``background_colour`` may be given for ``grey`` too (then a hand is taken out of it as well).
         """
         if self.name == GREY:
             image, background = to_grey(frame), np.asarray(background_grey, np.float32)
         elif self.name == BRIGHTER:
             image, background = _brightness_and_shade(frame, background_colour, gain)
         else:
-            image = chroma_contrast(frame, background_colour, gain)
+            image = chroma_contrast(frame, background_colour, gain, ball_bgr)
             background = np.zeros_like(image)
         hand = hand_pixels(frame, background_colour)
         if hand is not None and hand.any():
@@ -150,13 +156,30 @@ def _brightness_and_shade(frame, background_colour, gain):
     return brightness, cv2.erode(shade, SHADE_NEIGHBOURHOOD) * length
 
 
-def chroma_contrast(frame, background_colour, gain=1.0):
-    """The ``chroma`` contrast of a BGR frame (window) to the background's colour, float32 grey levels."""
-    background, unit = _unit_background(background_colour)
-    difference = frame.astype(np.float32) * np.float32(1.0 / gain) - background
-    along = (difference * unit).sum(axis=-1)
-    across = difference - along[..., None] * unit
+def _across(vectors, unit):
+    """The length of BGR ``vectors`` across the unit background colours ``unit`` (pixel by pixel)."""
+    along = (vectors * unit).sum(axis=-1)
+    across = vectors - along[..., None] * unit
     return np.sqrt((across * across).sum(axis=-1))
+
+
+def chroma_contrast(frame, background_colour, gain=1.0, ball_bgr=None):
+    """The ``chroma`` contrast of a BGR frame (window) to the background's colour, float32 grey levels.
+
+    With ``ball_bgr``, each pixel's contrast is divided by the ball's own contrast to that pixel's
+    background (at least ``MIN_BALL_CHROMA_FRACTION`` of its median over the window) and multiplied
+    by that median: a fully covered pixel reads the same wherever the ball is, in grey levels of the
+    window's typical contrast.
+    """
+    background, unit = _unit_background(background_colour)
+    image = _across(frame.astype(np.float32) * np.float32(1.0 / gain) - background, unit)
+    if ball_bgr is None:
+        return image
+    full = _across(np.broadcast_to(np.asarray(ball_bgr, np.float32), background.shape), unit)
+    typical = float(np.median(full))
+    if typical <= 0.0:
+        return image
+    return image * (typical / np.maximum(full, MIN_BALL_CHROMA_FRACTION * typical))
 
 
 #: Skin in YCrCb (8-bit OpenCV scale): red-difference Cr and blue-difference Cb ranges of human skin

@@ -148,6 +148,7 @@ class BallTracker:
         self.contrast = contrast or contrast_of(GREY, (), background)
         self.hints = hints or TrackerHints()
         self._gain = 1.0
+        self._ball_colours = []  # BGR at the centre of recent ok balls, the frame's gain divided out
         height, width = background.grey.shape
         self.left, self.top, self.right, self.bottom = 0, 0, width, height  # the region searched, px
         if self.hints.roi_px is not None:
@@ -161,6 +162,11 @@ class BallTracker:
         self._history = []  # (frame index, x, y) of the last found balls
         self._previous = None
         self._index = -1
+
+    @property
+    def ball_bgr(self):
+        """The ball's colour, BGR levels: the median at the centre of recent ``ok`` balls (None before)."""
+        return tuple(np.median(self._ball_colours, axis=0)) if self._ball_colours else None
 
     @property
     def radius_ref_px(self):
@@ -200,12 +206,18 @@ class BallTracker:
             return None
         colour = self.background.colour[y0:y1, x0:x1] if self.background.colour is not None else None
         window = frame[y0:y1, x0:x1]
-        image, background = self.contrast.images(window, self.background.grey[y0:y1, x0:x1], colour, self._gain)
+        image, background = self.contrast.images(window, self.background.grey[y0:y1, x0:x1], colour, self._gain,
+                                                 self.ball_bgr)
         edges = (x0 == self.left, y0 == self.top, x1 == self.right, y1 == self.bottom)
         result = measure_ball(image, background, self.contrast.threshold, (x_c - x0, y_c - y0), self.radius_ref_px,
                               edges, motion_px)
         if result is None:
             return None
+        if result.quality == QUALITY_OK and window.ndim == 3:
+            rows, columns = np.ogrid[:window.shape[0], :window.shape[1]]
+            core = (columns - result.x_px) ** 2 + (rows - result.y_px) ** 2 <= (0.5 * result.radius_px) ** 2
+            if core.any():
+                self._ball_colours = (self._ball_colours + [np.median(window[core], axis=0) / self._gain])[-15:]
         hand = hand_pixels(window, colour)
         if result.quality != QUALITY_OCCLUDED and hand is not None and hand.any():
             # a hand touching the ball hides part of it, whether or not it shows in this channel
