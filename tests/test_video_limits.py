@@ -3,6 +3,7 @@
 import numpy as np
 import pandas as pd
 import pytest
+import xarray as xr
 
 from dropfit import Ball, stages
 from dropfit.video import limits as video_limits
@@ -180,3 +181,17 @@ def test_a_clip_above_the_limits_gives_e_within_tolerance_of_the_truth(tmp_path,
     assert len(impacts) >= 2
     true_e = drop.impacts["e"].to_numpy()[: len(impacts)]
     assert np.all(np.abs(impacts["e"].to_numpy() - true_e) < E_TOLERANCE)
+
+
+def test_a_tracked_ball_that_does_not_fall_with_g_is_refused_with_what_was_tracked(tmp_path):
+    """A video whose tracked flights do not fall with g (the ball lost in its flights, seen only near the
+    floor) is refused with what the tracker measured and the options that help, not with a log's advice
+    about column units."""
+    time = np.arange(300) / 60.0
+    quality = np.where(np.arange(300) % 3 == 0, 0, 1)
+    heights = np.where(np.arange(300) % 2 == 0, 0.02, 0.03)  # a 1 cm jitter near the floor
+    trajectory = xr.Dataset({"y": ("time", heights), "quality": ("time", quality)}, coords={"time": time})
+    message = video_limits.not_free_fall(tmp_path / "clip.mov", 0.005, trajectory)
+    assert message.startswith(f"{tmp_path / 'clip.mov'}: not analysable: the tracked ball falls with 0.005 m/s², "
+                              f"not g: it was measured in 100 of 300 frames, over 0.01 m of height")
+    assert "--ball-at-px" in message and "column names" not in message and "\n" not in message

@@ -24,6 +24,21 @@ class InputError(Exception):
     """
 
 
+class NotFreeFallError(InputError):
+    """The flights of a recording do not fall with g: its units or scale are wrong, or (a video) what was
+    tracked is not the ball in flight.
+
+    Attributes
+    ----------
+    acceleration_m_s2 : float
+        The flights' shared downward acceleration, m/s².
+    """
+
+    def __init__(self, message, acceleration_m_s2):
+        super().__init__(message)
+        self.acceleration_m_s2 = acceleration_m_s2
+
+
 def shown(text, limit=QUOTE_LIMIT, keep="start"):
     """User text (a cell value, a column name, a path) made safe to quote in a one-line message.
 

@@ -27,7 +27,7 @@ from .analysis import analyse_bounces
 from .analysis.horizontal import add_horizontal
 from .audio.recording import analyse_sound, is_sound_dataset, is_sound_recording, sound_trajectory
 from .balls import ball_kind
-from .errors import InputError, shown_path
+from .errors import InputError, NotFreeFallError, shown_path
 from .files import sha256_of
 from .fitrecord import analysis_summary, fit_summary, plain
 from .heightlog import nominal_drag_of, trajectory_from_log
@@ -253,7 +253,12 @@ def analyse_trajectory(trajectory, settings=None, source=None):
     time = trajectory["time"].values
     interval = float(np.median(np.diff(time))) if time.size > 1 else 0.0
     options = analysis_options(attrs, settings, interval)
-    analysis = analyse_bounces(time, trajectory["y"].values, **options)
+    try:
+        analysis = analyse_bounces(time, trajectory["y"].values, **options)
+    except NotFreeFallError as error:
+        if "video" not in attrs:
+            raise
+        raise InputError(video_limits.not_free_fall(attrs["video"], error.acceleration_m_s2, trajectory)) from None
     if "video" in attrs:  # a video's later bounces may be too briefly filmed to resolve
         analysis = video_limits.select_resolved_impacts(analysis, attrs["video"], interval)
     if "x" in trajectory:  # a 2-D recording: the tangential velocities and angles (e stays the vertical fit's)

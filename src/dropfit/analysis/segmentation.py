@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
-from ..errors import InputError
+from ..errors import InputError, NotFreeFallError
 from ..numerics import linear_fit, robust_sigma
 from .flights import MIN_SAMPLES_PER_FLIGHT, shared_acceleration
 
@@ -451,6 +451,7 @@ def check_free_fall(t, y, bounds, g, source):
     kept = free_flights(pieces, g)
     acceleration, _ = shared_acceleration(pieces[: max(kept, 1)])
     if not abs(acceleration / g - 1.0) < FREE_FALL_TOLERANCE:
-        raise InputError(f"{source}: the flights fall with {acceleration:.4g} m/s², not g = {g:g} m/s²: check the "
-                         f"units of time and height in the column names (or the scale of a px log)")
+        raise NotFreeFallError(f"{source}: the flights fall with {acceleration:.4g} m/s², not g = {g:g} m/s²: check "
+                               f"the units of time and height in the column names (or the scale of a px log)",
+                               acceleration)
     return kept

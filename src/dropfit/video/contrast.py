@@ -108,7 +108,7 @@ class Contrast:
         image, background = self.images(frame, background_grey, background_colour, gain)
         return image - background
 
-    def images(self, frame, background_grey, background_colour, gain=1.0, ball_bgr=None):
+    def images(self, frame, background_grey, background_colour, gain=1.0, ball_bgr=None, min_hand_area_px=0.0):
         """The frame and the background in this channel, float32, for :func:`dropfit.video.detect.measure_ball`.
 
         ``grey`` gives the grey levels of both, so that the ball's coverage of each pixel is
@@ -116,8 +116,8 @@ class Contrast:
         its contrast image and zeros. With the ball's colour ``ball_bgr`` known (BGR levels),
         ``chroma`` is scaled pixel by pixel to the ball's own chroma against that pixel's
         background (:func:`chroma_contrast`), so that a ball passing from a wall to a floor of
-        another colour is covered alike on both. A hand (:func:`hand_pixels`) is taken out: its
-        pixels are given the background's value. Parameters as :meth:`image`;
+        another colour is covered alike on both. A hand (:func:`hand_pixels`, at least
+        ``min_hand_area_px`` px) is taken out: its pixels are given the background's value. Parameters as :meth:`image`;
         ``background_colour`` may be given for ``grey`` too (then a hand is taken out of it as well).
         """
         if self.name == GREY:
@@ -127,7 +127,7 @@ class Contrast:
         else:
             image = chroma_contrast(frame, background_colour, gain, ball_bgr)
             background = np.zeros_like(image)
-        hand = hand_pixels(frame, background_colour)
+        hand = hand_pixels(frame, background_colour, ball_bgr, min_hand_area_px)
         if hand is not None and hand.any():
             image = np.where(hand, background, image)
         return image, background
@@ -188,6 +188,10 @@ SKIN_CR = (135, 175)
 SKIN_CB = (80, 130)
 #: Least chroma contrast (grey levels) of a hand's pixel to the background.
 HAND_MIN_CHROMA = 20.0
+#: A pixel within this fraction of the ball-to-background colour distance (at least MIN_BLEND_TOLERANCE
+#: grey levels) of the segment between them is a blend of the two.
+BLEND_TOLERANCE = 0.15
+MIN_BLEND_TOLERANCE = 12.0
 #: Opening that keeps only skin-coloured areas broader than a ball's blended rim.
 HAND_OPENING = np.ones((5, 5), np.uint8)
 
@@ -208,9 +212,26 @@ def skin_mask(frame):
     return (cr >= SKIN_CR[0]) & (cr <= SKIN_CR[1]) & (cb >= SKIN_CB[0]) & (cb <= SKIN_CB[1])
 
 
-def hand_pixels(frame, background_colour):
+def _ball_blend(frame, background_colour, ball_bgr):
+    """Which pixels are a blend of the ball's colour and the background's (its rim, its blur): the
+    frame's colour lies on the segment from the background's to the ball's, within
+    ``BLEND_TOLERANCE`` of the segment's length (and ``MIN_BLEND_TOLERANCE`` grey levels)."""
+    background = background_colour.astype(np.float32)
+    span = np.asarray(ball_bgr, np.float32)[None, None, :] - background
+    length2 = np.maximum((span * span).sum(axis=-1), 1.0)
+    offset = frame.astype(np.float32) - background
+    share = (offset * span).sum(axis=-1) / length2
+    off_line = offset - share[..., None] * span
+    tolerance = np.maximum(BLEND_TOLERANCE * np.sqrt(length2), MIN_BLEND_TOLERANCE)
+    return (share >= -0.05) & (share <= 1.05) & (np.sqrt((off_line * off_line).sum(axis=-1)) <= tolerance)
+
+
+def hand_pixels(frame, background_colour, ball_bgr=None, min_area_px=0.0):
     """Pixels of a BGR frame (window) that are skin-coloured where the background is not, and differ from
     it in hue by more than ``HAND_MIN_CHROMA``: a hand (areas at least 5 px across: ``HAND_OPENING``).
+    With the ball's colour ``ball_bgr`` known, blends of it with the background are not; with
+    ``min_area_px``, only skin-coloured areas at least that large, or reaching the window's border,
+    count (a hand is larger than the ball).
 
     Returns
     -------
@@ -221,11 +242,22 @@ def hand_pixels(frame, background_colour):
     if background_colour is None or frame.ndim != 3 or frame.shape[2] != 3 or frame.dtype != np.uint8:
         return None
     # skin-coloured where the background is not, and not the background in shade (a shadow keeps its hue)
-    hand = (skin_mask(frame) & ~skin_mask(background_colour)
-            & (chroma_contrast(frame, background_colour) > HAND_MIN_CHROMA)).astype(np.uint8)
+    hand = skin_mask(frame) & ~skin_mask(background_colour) & (chroma_contrast(frame, background_colour) > HAND_MIN_CHROMA)
+    if ball_bgr is not None:  # a red ball blurred over a white wall is pink: its blend, not a hand
+        hand &= ~_ball_blend(frame, background_colour, ball_bgr)
+    hand = hand.astype(np.uint8)
     # a ball's anti-aliased rim blends its colour with the wall's into skin-like tones, a ring at most
     # two pixels wide; a hand is broader
-    return cv2.morphologyEx(hand, cv2.MORPH_OPEN, HAND_OPENING).astype(bool)
+    hand = cv2.morphologyEx(hand, cv2.MORPH_OPEN, HAND_OPENING)
+    if min_area_px > 0 and hand.any():
+        # the shaded side of a red or orange ball is skin-coloured too, but smaller than the ball
+        count, labels, stats, _ = cv2.connectedComponentsWithStats(hand, connectivity=8)
+        x0, y0, width, height, area = stats.T
+        # what reaches the window's border goes on beyond it: an arm
+        at_border = (x0 == 0) | (y0 == 0) | (x0 + width == hand.shape[1]) | (y0 + height == hand.shape[0])
+        large = np.flatnonzero((area >= min_area_px) | at_border)
+        return np.isin(labels, large[large > 0])
+    return hand.astype(bool)
 
 
 def chromaticity(bgr):

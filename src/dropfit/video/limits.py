@@ -136,6 +136,32 @@ def check_recording(table, source):
         raise InputError(f"{shown_path(source)}: not analysable: {'; '.join(violations)}{cause}")
 
 
+def not_free_fall(source, acceleration_m_s2, trajectory):
+    """The refusal of a video whose tracked flights do not fall with g: what the tracker measured.
+
+    Parameters
+    ----------
+    source : str
+        The video.
+    acceleration_m_s2 : float
+        The tracked flights' shared downward acceleration, m/s².
+    trajectory : xarray.Dataset
+        The video's trajectory (``y`` in m, ``quality`` 0 for a measured frame).
+
+    Returns
+    -------
+    str
+        One line: the acceleration, how many frames were measured and over what height, and what to try.
+    """
+    measured = trajectory["quality"].values == 0
+    heights = trajectory["y"].values[measured]
+    span = float(np.ptp(heights)) if heights.size else 0.0
+    return (f"{shown_path(source)}: not analysable: the tracked ball falls with {acceleration_m_s2:.3g} m/s², not g: "
+            f"it was measured in {int(measured.sum())} of {measured.size} frames, over {span:.3g} m of height (the "
+            f"tracker lost the ball in its flights or followed something else, or the scale is wrong); "
+            f"{TRACKER_HELP}")
+
+
 def unclean_frames(table):
     """What the frames not measured cleanly were, in words: how many merged, partial, lost, and the channel.
 

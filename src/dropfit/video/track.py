@@ -46,7 +46,7 @@ from ..errors import InputError, shown_path
 from ..files import check_input_file
 from .background import (BACKGROUND_SAMPLES, Background, background_without_ball, estimate_background, grey_uint8,
                          to_grey)
-from .contrast import CHROMA, GREY, Contrast, available_contrasts, contrast_of, frame_gain, hand_pixels
+from .contrast import CHROMA, GREY, Contrast, available_contrasts, contrast_of, frame_gain, hand_pixels, skin_mask
 from .decode import MIN_FRAMES, Progress, VideoFile, check_frame_count, check_video_file, frame_times, spread_indices
 from .detect import (QUALITY_BLURRED, QUALITY_DUPLICATE, QUALITY_LOST, QUALITY_OCCLUDED, QUALITY_OK, QUALITY_PARTIAL,
                      find_ball, find_blobs, measure_ball)
@@ -148,7 +148,7 @@ class BallTracker:
         self.contrast = contrast or contrast_of(GREY, (), background)
         self.hints = hints or TrackerHints()
         self._gain = 1.0
-        self._ball_colours = []  # BGR at the centre of recent ok balls, the frame's gain divided out
+        self._ball_colours = []  # BGR at the centre of recently measured balls, the frame's gain divided out
         height, width = background.grey.shape
         self.left, self.top, self.right, self.bottom = 0, 0, width, height  # the region searched, px
         if self.hints.roi_px is not None:
@@ -165,7 +165,8 @@ class BallTracker:
 
     @property
     def ball_bgr(self):
-        """The ball's colour, BGR levels: the median at the centre of recent ``ok`` balls (None before)."""
+        """The ball's colour, BGR levels: the median at the centre of the balls recently measured whose
+        centre is not skin-coloured (None before)."""
         return tuple(np.median(self._ball_colours, axis=0)) if self._ball_colours else None
 
     @property
@@ -206,19 +207,24 @@ class BallTracker:
             return None
         colour = self.background.colour[y0:y1, x0:x1] if self.background.colour is not None else None
         window = frame[y0:y1, x0:x1]
+        # a hand is larger than the ball (before its radius is known: the one the window was sized for)
+        hand_area = math.pi * (self.radius_ref_px or max((half_size - WINDOW_MARGIN_PX) / 2.0, 0.0)) ** 2
         image, background = self.contrast.images(window, self.background.grey[y0:y1, x0:x1], colour, self._gain,
-                                                 self.ball_bgr)
+                                                 self.ball_bgr, hand_area)
         edges = (x0 == self.left, y0 == self.top, x1 == self.right, y1 == self.bottom)
         result = measure_ball(image, background, self.contrast.threshold, (x_c - x0, y_c - y0), self.radius_ref_px,
                               edges, motion_px)
         if result is None:
             return None
-        if result.quality == QUALITY_OK and window.ndim == 3:
+        if window.ndim == 3:
             rows, columns = np.ogrid[:window.shape[0], :window.shape[1]]
             core = (columns - result.x_px) ** 2 + (rows - result.y_px) ** 2 <= (0.5 * result.radius_px) ** 2
             if core.any():
-                self._ball_colours = (self._ball_colours + [np.median(window[core], axis=0) / self._gain])[-15:]
-        hand = hand_pixels(window, colour)
+                centre = np.median(window[core], axis=0)
+                # a ball's centre, not a hand's: held or blurred balls teach the colour too
+                if not skin_mask(np.clip(np.rint(centre), 0, 255).astype(np.uint8).reshape(1, 1, 3))[0, 0]:
+                    self._ball_colours = (self._ball_colours + [centre / self._gain])[-15:]
+        hand = hand_pixels(window, colour, self.ball_bgr, hand_area)
         if result.quality != QUALITY_OCCLUDED and hand is not None and hand.any():
             # a hand touching the ball hides part of it, whether or not it shows in this channel
             rows, columns = np.nonzero(hand)
