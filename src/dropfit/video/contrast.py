@@ -108,7 +108,7 @@ class Contrast:
         image, background = self.images(frame, background_grey, background_colour, gain)
         return image - background
 
-    def images(self, frame, background_grey, background_colour, gain=1.0, ball_bgr=None, min_hand_area_px=0.0):
+    def images(self, frame, background_grey, background_colour, gain=1.0, ball_bgr=None, hand=None):
         """The frame and the background in this channel, float32, for :func:`dropfit.video.detect.measure_ball`.
 
         ``grey`` gives the grey levels of both, so that the ball's coverage of each pixel is
@@ -116,8 +116,8 @@ class Contrast:
         its contrast image and zeros. With the ball's colour ``ball_bgr`` known (BGR levels),
         ``chroma`` is scaled pixel by pixel to the ball's own chroma against that pixel's
         background (:func:`chroma_contrast`), so that a ball passing from a wall to a floor of
-        another colour is covered alike on both. A hand (:func:`hand_pixels`, at least
-        ``min_hand_area_px`` px) is taken out: its pixels are given the background's value. Parameters as :meth:`image`;
+        another colour is covered alike on both. A hand (``hand``, by default :func:`hand_pixels`) is
+        taken out: its pixels are given the background's value. Parameters as :meth:`image`;
         ``background_colour`` may be given for ``grey`` too (then a hand is taken out of it as well).
         """
         if self.name == GREY:
@@ -127,7 +127,8 @@ class Contrast:
         else:
             image = chroma_contrast(frame, background_colour, gain, ball_bgr)
             background = np.zeros_like(image)
-        hand = hand_pixels(frame, background_colour, ball_bgr, min_hand_area_px)
+        if hand is None:
+            hand = hand_pixels(frame, background_colour, ball_bgr)
         if hand is not None and hand.any():
             image = np.where(hand, background, image)
         return image, background
@@ -241,8 +242,11 @@ def hand_pixels(frame, background_colour, ball_bgr=None, min_area_px=0.0):
     frame = np.asarray(frame)
     if background_colour is None or frame.ndim != 3 or frame.shape[2] != 3 or frame.dtype != np.uint8:
         return None
+    hand = skin_mask(frame)
+    if not hand.any():  # most windows: nothing skin-coloured, nothing more to compute
+        return hand
     # skin-coloured where the background is not, and not the background in shade (a shadow keeps its hue)
-    hand = skin_mask(frame) & ~skin_mask(background_colour) & (chroma_contrast(frame, background_colour) > HAND_MIN_CHROMA)
+    hand &= ~skin_mask(background_colour) & (chroma_contrast(frame, background_colour) > HAND_MIN_CHROMA)
     if ball_bgr is not None:  # a red ball blurred over a white wall is pink: its blend, not a hand
         hand &= ~_ball_blend(frame, background_colour, ball_bgr)
     hand = hand.astype(np.uint8)

@@ -209,8 +209,9 @@ class BallTracker:
         window = frame[y0:y1, x0:x1]
         # a hand is larger than the ball (before its radius is known: the one the window was sized for)
         hand_area = math.pi * (self.radius_ref_px or max((half_size - WINDOW_MARGIN_PX) / 2.0, 0.0)) ** 2
+        hand = hand_pixels(window, colour, self.ball_bgr, hand_area)
         image, background = self.contrast.images(window, self.background.grey[y0:y1, x0:x1], colour, self._gain,
-                                                 self.ball_bgr, hand_area)
+                                                 self.ball_bgr, hand)
         edges = (x0 == self.left, y0 == self.top, x1 == self.right, y1 == self.bottom)
         result = measure_ball(image, background, self.contrast.threshold, (x_c - x0, y_c - y0), self.radius_ref_px,
                               edges, motion_px)
@@ -224,7 +225,6 @@ class BallTracker:
                 # a ball's centre, not a hand's: held or blurred balls teach the colour too
                 if not skin_mask(np.clip(np.rint(centre), 0, 255).astype(np.uint8).reshape(1, 1, 3))[0, 0]:
                     self._ball_colours = (self._ball_colours + [centre / self._gain])[-15:]
-        hand = hand_pixels(window, colour, self.ball_bgr, hand_area)
         if result.quality != QUALITY_OCCLUDED and hand is not None and hand.any():
             # a hand touching the ball hides part of it, whether or not it shows in this channel
             rows, columns = np.nonzero(hand)
