@@ -201,8 +201,7 @@ def test_seed_example3_through_the_workflow(tmp_path):
     """The seed's Example 3 alone through the workflow (about 30 s): rule synth_refsim remakes its
     recording (x and y) as committed, and the results reproduce its peaks, t∞, u t∞ and e within their
     standard errors; the report shows the path y(x)."""
-    root = copy_workflow(tmp_path)
-    shutil.copytree(REPO / "refsim", root / "refsim", ignore=shutil.ignore_patterns("__pycache__"))
+    root = copy_workflow(tmp_path)  # with refsim/, which remakes the recording
     recording = root / "data" / "synthetic" / "seed_example3_oblique.csv"
     recording.unlink()
     results = root / "results" / "seed_example3_oblique"

@@ -152,43 +152,67 @@ def estimate_background(samples):
     return Background(np.ascontiguousarray(grey, dtype=np.float32), noise, threshold, colour)
 
 
+def _distance(a, b, in_colour):
+    """Distance between grey levels, or colours (last axis BGR), NaN where either is NaN."""
+    return np.sqrt(((a - b) ** 2).sum(axis=-1)) if in_colour else np.abs(a - b)
+
+
+def _agreed(values, threshold, in_colour):
+    """Per pixel, the median of the samples that agree with the sample most others agree with.
+
+    ``values`` has shape (k, n), or (k, n, 3) ``in_colour``, NaN for samples left out at a pixel;
+    two samples agree within ``threshold`` (grey levels, or colour distance). Returns shape (n,) or
+    (n, 3).
+    """
+    k = values.shape[0]
+    agreement = np.stack([np.nan_to_num(_distance(values, values[i][None], in_colour), nan=np.inf) <= threshold
+                          for i in range(k)]).sum(axis=1)
+    valid = np.isfinite(values[..., 0] if in_colour else values)
+    agreement = np.where(valid, agreement, -1)
+    most = values[np.argmax(agreement, axis=0), np.arange(values.shape[1])]
+    agreeing = np.nan_to_num(_distance(values, most[None], in_colour), nan=np.inf) <= threshold
+    # the median of the samples that agree: less noisy than one sample
+    return np.nanmedian(np.where(agreeing[..., None] if in_colour else agreeing, values, np.nan), axis=0)
+
+
+def _set(grey, colour, where, values):
+    """``grey`` and ``colour`` (copies) with ``values`` (colour or grey, per the samples) at ``where``."""
+    grey = grey.copy()
+    if colour is not None:
+        colour = colour.copy()
+        colour[where] = np.clip(np.rint(values), 0, 255).astype(np.uint8)
+        grey[where] = to_grey(colour[where][None])[0]
+    else:
+        grey[where] = values
+    return grey, colour
+
+
+def _sample_values(samples, colour, where=None):
+    """The samples' colours (or grey levels without a colour background), float32, (k, ...)."""
+    if colour is not None:
+        stack = np.stack([np.asarray(sample) if where is None else np.asarray(sample)[where] for sample in samples])
+    else:
+        stack = np.stack([to_grey(sample) if where is None else to_grey(sample)[where] for sample in samples])
+    return stack.astype(np.float32)
+
+
 def _most_agreed(samples, grey, colour, threshold):
     """The median, except where most samples disagree with it: there the sample most others agree with.
 
     A hand that holds the ball near the floor for more than half of the clip, or a ball bouncing
     low, makes the median of those pixels a blend of scene and foreground, which no sample shows.
     Where fewer than half of the samples are within ``threshold`` (grey levels, colour distance
-    for colour samples) of the median, the background takes the value of the sample that the most
-    samples are within ``threshold`` of (the median of those samples): the scene, seen whenever the
-    moving foreground is elsewhere.
+    for colour samples) of the median, the background takes the median of the samples that agree
+    with the sample most others agree with (:func:`_agreed`): the scene, seen whenever the moving
+    foreground is elsewhere.
     """
-    values = np.stack([np.asarray(sample) for sample in samples]).astype(np.float32) if colour is not None else \
-        np.stack([to_grey(sample) for sample in samples])
+    values = _sample_values(samples, colour)
     median = (colour if colour is not None else grey).astype(np.float32)
-    k = len(samples)
-
-    def distance(a, b):
-        return np.sqrt(((a - b) ** 2).sum(axis=-1)) if colour is not None else np.abs(a - b)
-
-    near_median = (distance(values, median[None]) <= threshold).sum(axis=0)
-    unsettled = near_median < (k + 1) // 2
+    in_colour = colour is not None
+    unsettled = (_distance(values, median[None], in_colour) <= threshold).sum(axis=0) < (len(samples) + 1) // 2
     if not unsettled.any():
         return grey, colour
-    chosen = values[:, unsettled]  # (k, n[, 3])
-    agreement = np.stack([(distance(chosen, chosen[i][None]) <= threshold).sum(axis=0) for i in range(k)])
-    most = chosen[np.argmax(agreement, axis=0), np.arange(chosen.shape[1])]
-    agreeing = distance(chosen, most[None]) <= threshold
-    # the median of the samples that agree: less noisy than one sample
-    best = np.nanmedian(np.where(agreeing[..., None] if colour is not None else agreeing, chosen, np.nan), axis=0)
-    grey = grey.copy()
-    if colour is not None:
-        colour = colour.copy()
-        colour[unsettled] = np.clip(np.rint(best), 0, 255).astype(np.uint8)
-        grey[unsettled] = to_grey(colour[unsettled][None])[0]
-    else:
-        grey[unsettled] = best
-    return grey, colour
-
+    return _set(grey, colour, unsettled, _agreed(values[:, unsettled], threshold, in_colour))
 
 
 def background_without_ball(samples, balls, background):
@@ -209,9 +233,9 @@ def background_without_ball(samples, balls, background):
     Background or None
         None when no pixel is covered by the ball (a disc of ``BALL_MASK_RADII`` radii plus
         ``BALL_MASK_MARGIN_PX``) in more than half of the samples: the median is then the scene.
-        Else, where the ball covered more than half of the samples (so their median is the ball),
-        the per-pixel median of the uncovered samples, and elsewhere the first background (where
-        every sample is covered too), with the first background's noise and threshold.
+        Else, where the ball covered some samples, what most of the uncovered samples agree on
+        (:func:`_agreed`), and elsewhere the first background (where every sample is covered too),
+        with the first background's noise and threshold.
     """
     balls = np.asarray(balls, float).reshape(-1, 3)
     found = np.isfinite(balls).all(axis=1)
@@ -228,18 +252,11 @@ def background_without_ball(samples, balls, background):
     covered = discs.sum(axis=0)
     if covered.max() <= len(balls) // 2:
         return None
-    # only pixels the ball covered in more than half of the samples (so in their median) change; where
-    # it covered all, the first background stays
-    changed = (covered > len(balls) // 2) & (covered < len(balls))
-    grey = background.grey.copy()
-    greys = np.stack([to_grey(sample)[changed] for sample in samples])
-    greys[discs[:, changed]] = np.nan
-    grey[changed] = np.nanmedian(greys, axis=0)
-    colour = background.colour
-    if colour is not None:
-        colour = colour.copy()
-        colours = np.stack([np.asarray(sample)[changed] for sample in samples]).astype(np.float32)
-        colours[discs[:, changed]] = np.nan
-        colour[changed] = np.clip(np.rint(np.nanmedian(colours, axis=0)), 0, 255).astype(np.uint8)
+    # where it covered every sample, the first background stays
+    changed = (covered > 0) & (covered < len(balls))
+    values = _sample_values(samples, background.colour, changed)
+    values[discs[:, changed]] = np.nan
+    grey, colour = _set(background.grey, background.colour, changed,
+                        _agreed(values, background.threshold_grey, background.colour is not None))
     return Background(grey, background.noise_grey, background.threshold_grey, colour)
 
