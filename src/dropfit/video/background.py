@@ -22,6 +22,13 @@ NOISE_THRESHOLD_SIGMAS = 5.0
 #: Lower bound of the foreground threshold, grey levels (for noise-free or quantised video).
 MIN_THRESHOLD_GREY = 6.0
 
+#: A background pixel is a blend of scene and foreground (see :func:`_most_agreed`) when fewer than this
+#: fraction of the samples agree with the median there (a hand moving about at one place leaves almost
+#: none) ...
+BLEND_AGREEMENT = 0.2
+#: ... and the samples agreeing on the scene there are at least this fraction of them (the shading of a
+#: large ball that moves slowly all clip long differs in every sample: its median stays).
+SCENE_AGREEMENT = 0.45
 #: Number of frames, spread over the clip, whose per-pixel median is the background.
 BACKGROUND_SAMPLES = 11
 
@@ -161,8 +168,8 @@ def _agreed(values, threshold, in_colour):
     """Per pixel, the median of the samples that agree with the sample most others agree with.
 
     ``values`` has shape (k, n), or (k, n, 3) ``in_colour``, NaN for samples left out at a pixel;
-    two samples agree within ``threshold`` (grey levels, or colour distance). Returns shape (n,) or
-    (n, 3).
+    two samples agree within ``threshold`` (grey levels, or colour distance). Returns the values,
+    shape (n,) or (n, 3), and how many samples agree at each pixel.
     """
     k = values.shape[0]
     agreement = np.stack([np.nan_to_num(_distance(values, values[i][None], in_colour), nan=np.inf) <= threshold
@@ -172,7 +179,8 @@ def _agreed(values, threshold, in_colour):
     most = values[np.argmax(agreement, axis=0), np.arange(values.shape[1])]
     agreeing = np.nan_to_num(_distance(values, most[None], in_colour), nan=np.inf) <= threshold
     # the median of the samples that agree: less noisy than one sample
-    return np.nanmedian(np.where(agreeing[..., None] if in_colour else agreeing, values, np.nan), axis=0)
+    return (np.nanmedian(np.where(agreeing[..., None] if in_colour else agreeing, values, np.nan), axis=0),
+            agreeing.sum(axis=0))
 
 
 def _set(grey, colour, where, values):
@@ -201,18 +209,22 @@ def _most_agreed(samples, grey, colour, threshold):
 
     A hand that holds the ball near the floor for more than half of the clip, or a ball bouncing
     low, makes the median of those pixels a blend of scene and foreground, which no sample shows.
-    Where fewer than half of the samples are within ``threshold`` (grey levels, colour distance
-    for colour samples) of the median, the background takes the median of the samples that agree
-    with the sample most others agree with (:func:`_agreed`): the scene, seen whenever the moving
-    foreground is elsewhere.
+    Where fewer than ``BLEND_AGREEMENT`` of the samples are within ``threshold`` (grey levels, colour
+    distance for colour samples) of the median, the background takes the median of the samples that agree
+    with the sample most others agree with (:func:`_agreed`), when at least ``SCENE_AGREEMENT`` of
+    them do: the scene, seen whenever the moving foreground is elsewhere.
     """
     values = _sample_values(samples, colour)
     median = (colour if colour is not None else grey).astype(np.float32)
     in_colour = colour is not None
-    unsettled = (_distance(values, median[None], in_colour) <= threshold).sum(axis=0) < (len(samples) + 1) // 2
+    unsettled = (_distance(values, median[None], in_colour) <= threshold).sum(axis=0) < BLEND_AGREEMENT * len(samples)
     if not unsettled.any():
         return grey, colour
-    return _set(grey, colour, unsettled, _agreed(values[:, unsettled], threshold, in_colour))
+    agreed, count = _agreed(values[:, unsettled], threshold, in_colour)
+    # a scene seen again and again, not one sample among many that differ (a slowly moving ball's shading)
+    seen = count >= SCENE_AGREEMENT * len(samples)
+    unsettled[unsettled] = seen
+    return _set(grey, colour, unsettled, agreed[seen]) if seen.any() else (grey, colour)
 
 
 def background_without_ball(samples, balls, background):
@@ -257,6 +269,6 @@ def background_without_ball(samples, balls, background):
     values = _sample_values(samples, background.colour, changed)
     values[discs[:, changed]] = np.nan
     grey, colour = _set(background.grey, background.colour, changed,
-                        _agreed(values, background.threshold_grey, background.colour is not None))
+                        _agreed(values, background.threshold_grey, background.colour is not None)[0])
     return Background(grey, background.noise_grey, background.threshold_grey, colour)
 

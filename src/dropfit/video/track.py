@@ -46,7 +46,7 @@ from ..errors import InputError, shown_path
 from ..files import check_input_file
 from .background import (BACKGROUND_SAMPLES, Background, background_without_ball, estimate_background, grey_uint8,
                          to_grey)
-from .contrast import CHROMA, GREY, Contrast, available_contrasts, contrast_of, frame_gain, hand_pixels, skin_mask
+from .contrast import CHANNELS, CHROMA, GREY, Contrast, available_contrasts, contrast_of, frame_gain, hand_pixels, skin_mask
 from .decode import MIN_FRAMES, Progress, VideoFile, check_frame_count, check_video_file, frame_times, spread_indices
 from .detect import (QUALITY_BLURRED, QUALITY_DUPLICATE, QUALITY_LOST, QUALITY_OCCLUDED, QUALITY_OK, QUALITY_PARTIAL,
                      find_ball, find_blobs, measure_ball)
@@ -430,21 +430,22 @@ def _track_in_best_contrast(track, contrasts, first_rows, samples, indices, back
 
     ``track(background, contrast)`` tracks all frames; ``first_rows`` are those of ``contrasts[0]``
     against ``background``. Each channel's rows are tracked again with the ball cut out of the
-    background where it is in it (:func:`_track_without_ball_in_background`). The next channel is
-    tried only while fewer than ``ENOUGH_USABLE_FRACTION`` of the frames where the ball was found
-    are usable.
+    background where it is in it (:func:`_track_without_ball_in_background`). When fewer than
+    ``ENOUGH_USABLE_FRACTION`` of the frames where the ball was found are usable in the first
+    channel, every other channel is tried, and the one with the most usable frames is kept (ties
+    in the order of :data:`dropfit.video.contrast.CHANNELS`: grey levels first).
     """
-    best = None
+    tracked = []
     for contrast in contrasts:
-        rows = first_rows if best is None else track(background, contrast)
+        rows = first_rows if not tracked else track(background, contrast)
         rows = _track_without_ball_in_background(lambda clean: track(clean, contrast), samples, indices, background,
                                                  rows)
         usable, found = _usable_and_found(rows)
-        if best is None or usable > best[0]:
-            best = (usable, rows, contrast)
-        if usable >= ENOUGH_USABLE_FRACTION * found:
+        tracked.append((usable, -CHANNELS.index(contrast.name), rows, contrast))
+        if len(tracked) == 1 and usable >= ENOUGH_USABLE_FRACTION * found:
             break
-    return best[1], best[2]
+    _, _, rows, contrast = max(tracked, key=lambda item: item[:2])
+    return rows, contrast
 
 
 def _sample_balls(rows, indices):
