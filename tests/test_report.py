@@ -1,7 +1,11 @@
 """Per-recording report and batch summary, built from a small synthetic run through the stages."""
 
+import base64
 import json
+import re
+from datetime import datetime, timedelta, timezone
 from html import escape
+from html.parser import HTMLParser
 
 import numpy as np
 import pandas as pd
@@ -11,7 +15,9 @@ from dropfit import stages
 from dropfit.fitrecord import fit_summary
 from dropfit.settings import Ball, Settings
 from dropfit.errors import InputError
-from dropfit.report import batch_report_html, batch_rows, format_pm
+from dropfit import __version__
+from dropfit.report import (agreement_words, batch_report_html, batch_rows, bic_words, format_pm, scatter_words,
+                            run_html)
 
 SCENARIOS = """\
 scenarios:
@@ -72,10 +78,12 @@ def test_batch_lists_failed_recording(run):
     assert list(table["status"]) == ["ok", "failed"]
     assert table.loc[1, "error"] == failed["error"]
     assert pd.isna(table.loc[1, "e"]) and not pd.isna(table.loc[0, "e"])
-    html = batch_report_html(table)
+    html = batch_report_html(table, [json.loads(run["fit.json"].read_text(encoding="utf-8")), failed])
     assert "1 analysed, 1 failed" in html
-    assert '<tr class="failed"><td>broken</td><td>failed</td>' in html
-    assert "t.csv: no samples &lt;b&gt;" in html
+    # the failed row: its id, no ball, the verdict cell in words, the reason across the other columns
+    assert ('<tr class="failed"><td>broken</td><td>—</td><td><span class="verdict-cell verdict-not-analysed">'
+            'not analysed</span></td><td class="reason" colspan="8"><b>failed:</b> t.csv: no samples &lt;b&gt;'
+            '</td></tr>') in html
 
 
 def test_summary_stage_reads_failure_records(run, tmp_path):
@@ -129,7 +137,7 @@ def test_qc_stage_groups_drops_by_ball(run, tmp_path):
     for title in ["Batch summary", "Control chart", "Balls", "Drops", "Failed recordings"]:
         assert f"<h2>{title}</h2>" in html
     assert "<b>drop4</b> (ball A): drop4.csv: no bounce found" in html
-    assert "141.00 ± 0.58" in html  # cm, ball A's mean and se
+    assert "141.00 ± 0.58" in re.sub("<[^>]+>", "", html)  # cm, ball A's mean and se
     assert out["qc.png"].read_bytes().startswith(b"\x89PNG\r\n\x1a\n")
 
 
@@ -205,3 +213,173 @@ def test_headline_model_section_and_figure_show_the_same_model(run, monkeypatch,
     assert row["restitution_model"] == expected
     assert row["e"] == pytest.approx(restitution["e"]["value"])
     assert row["e1"] == pytest.approx(impacts["e"].iloc[0])
+
+
+# --- pages a person would keep: links, run stamp, settings, words, the sample sheet's columns --------
+
+class _Page(HTMLParser):
+    """The links, table headers and images of an HTML page."""
+
+    def __init__(self, html):
+        super().__init__()
+        self.links, self.headers, self.images, self._in_th = [], [], [], False
+        self.feed(html)
+
+    def handle_starttag(self, tag, attrs):
+        attrs = dict(attrs)
+        if tag == "a":
+            self.links.append(attrs["href"])
+        elif tag == "img":
+            self.images.append(attrs)
+        elif tag == "th":
+            self._in_th = True
+            self.headers.append("")
+
+    def handle_endtag(self, tag):
+        self._in_th = self._in_th and tag != "th"
+
+    def handle_data(self, data):
+        if self._in_th:
+            self.headers[-1] += data
+
+
+def _batch_of_two(run, directory):
+    """The run's fit result as recording ``tennis_short`` and a failure record ``broken``, as the
+    workflow lays them out (``<directory>/<sample>/fit.json`` beside its report); their paths."""
+    good = directory / "tennis_short" / "fit.json"
+    good.parent.mkdir(parents=True)
+    good.write_text(run["fit.json"].read_text(encoding="utf-8"), encoding="utf-8")
+    (good.parent / "report.html").write_text(run["report.html"].read_text(encoding="utf-8"), encoding="utf-8")
+    broken = directory / "broken" / "fit.json"
+    broken.parent.mkdir()
+    broken.write_text(json.dumps({"status": "failed", "error": "bad log"}), encoding="utf-8")
+    return [good, broken]
+
+
+SHEET = ("sample_id\tkind\tpath\tball_type\tsurface\ttemperature_C\tsheets\n"
+         "tennis_short\theight_log\tx.csv\ttennis\tconcrete\t21.5\t3\n"
+         "broken\theight_log\ty.csv\ttennis\toak floor\t-4\t\n")
+
+
+def test_summary_links_every_report_and_carries_the_sheet_s_free_columns(run, tmp_path):
+    fits = _batch_of_two(run, tmp_path / "results")
+    (tmp_path / "samples.tsv").write_text(SHEET, encoding="utf-8")
+    out = tmp_path / "results" / "batch"
+    stages.summary(fits, out / "summary.csv", out / "summary.html", tmp_path / "samples.tsv", out / "e_vs.png")
+    html = (out / "summary.html").read_text(encoding="utf-8")
+    page = _Page(html)
+    # every recording links the report beside its fit.json, relative to the page
+    assert [(out / href).resolve() for href in page.links] == [(path.parent / "report.html").resolve()
+                                                               for path in fits]
+    assert page.links[0] == "../tennis_short/report.html"
+    # the free columns (not kind, path or ball_type, which the workflow reads) in the CSV and on the page
+    table = pd.read_csv(out / "summary.csv")
+    assert list(table.columns[-3:]) == ["surface", "temperature_C", "sheets"]
+    assert "kind" not in table.columns and "path" not in table.columns
+    assert table["surface"].tolist() == ["concrete", "oak floor"]
+    assert table["temperature_C"].tolist() == [21.5, -4.0]
+    assert table.loc[0, "sheets"] == 3 and pd.isna(table.loc[1, "sheets"])
+    assert {"surface", "temperature_C", "sheets", "e law", "e₁ ± se (1)", "ITF verdict"} <= set(page.headers)
+    fit = json.loads(run["fit.json"].read_text(encoding="utf-8"))
+    e1 = fit["restitution"]["e1"]
+    assert format_pm(e1["value"], e1["se"]) in re.sub("<[^>]+>", "", html)
+    assert f"{fit['restitution']['model']} <span class='words'>(" in html
+    verdict = fit["itf"]["verdict"]
+    assert f'<span class="verdict-cell verdict-{verdict}">{verdict}</span>' in html
+    # e against the numeric columns: written as PNG and shown on the page
+    png = (out / "e_vs.png").read_bytes()
+    assert png.startswith(b"\x89PNG\r\n\x1a\n")
+    assert any(image["src"] == "data:image/png;base64," + base64.b64encode(png).decode("ascii")
+               for image in page.images)
+    assert "(temperature_C, sheets)" in html
+
+
+def test_summary_refuses_a_sample_sheet_it_cannot_use_in_one_line(run, tmp_path):
+    fits = _batch_of_two(run, tmp_path / "results")
+    no_id = tmp_path / "no_id.tsv"
+    no_id.write_text("sample id\tsurface\ntennis_short\tconcrete\n", encoding="utf-8")
+    twice = tmp_path / "twice.tsv"
+    twice.write_text("sample_id\tsurface\ntennis_short\tconcrete\ntennis_short\toak\n", encoding="utf-8")
+    for sheet, message in [(no_id, "no sample_id column"), (twice, "sample_id tennis_short appears more than once"),
+                           (tmp_path / "missing.tsv", "cannot read the sample sheet")]:
+        with pytest.raises(InputError, match=message):
+            stages.summary(fits, tmp_path / "s.csv", tmp_path / "s.html", sheet)
+        assert not (tmp_path / "s.csv").exists() and not (tmp_path / "s.html").exists()
+
+
+def test_every_page_carries_the_date_the_version_and_the_settings(run, tmp_path):
+    fits = _batch_of_two(run, tmp_path / "results")
+    out = tmp_path / "results" / "batch"
+    stages.summary(fits, out / "summary.csv", out / "summary.html")
+    stages.qc(fits, "lot", out / "qc.html", out / "qc.png", out / "qc.csv")
+    fit = json.loads(run["fit.json"].read_text(encoding="utf-8"))
+    config = fit["config"]
+    today = {datetime.now(timezone.utc).date() + timedelta(days=days) for days in (-1, 0)}  # a run over midnight
+    for page in [run["report.html"], out / "summary.html", out / "qc.html"]:
+        html = page.read_text(encoding="utf-8")
+        run_block = html[html.index('<section class="run">'):html.index("</section>")]
+        assert any(f"<dd>{day:%Y-%m-%d} " in run_block for day in today), page.name
+        assert f"by dropfit {__version__}</dd>" in run_block
+        assert f"<dd>dropfit {fit['dropfit_version']}</dd>" in run_block
+        assert f"{format_pm(config['gravity_m_s2'], config['gravity_se_m_s2'])} m/s² ({config['gravity_source']})" \
+            in run_block
+        assert f"<dd>{config['drag']}: " in run_block
+        assert (f"rebound {config['itf_rebound_min_m']:.2f}–{config['itf_rebound_max_m']:.2f} m from a "
+                f"{config['itf_drop_height_m']:.2f} m drop") in run_block
+        assert f"<dd>{fit['ball']['type']}, radius {1e3 * fit['ball']['radius_m']:.1f} mm" in run_block
+
+
+def test_settings_that_differ_between_recordings_are_counted():
+    fits = [{"config": {"drag": drag}, "ball": {"type": "tennis"}} for drag in ("auto", "off", "auto")]
+    html = run_html(fits + [{"status": "failed", "error": "x"}])
+    assert "differs: auto: fitted where the BIC asks for it (2 recordings); off: never fitted (1 recording)" in html
+    assert "no recording was analysed" in run_html([{"status": "failed", "error": "x"}])
+
+
+@pytest.mark.parametrize("delta_bic, strength", [(1.0, "weak"), (3.0, "positive"), (7.0, "strong"),
+                                                 (12.0, "very strong")])
+def test_bic_in_words_follows_kass_and_raftery(delta_bic, strength):
+    """2 ln B (≈ ΔBIC) 0–2 weak, 2–6 positive, 6–10 strong, > 10 very strong (Kass & Raftery 1995, table)."""
+    assert bic_words(delta_bic, "the linear law", "the constant one") == \
+        f"ΔBIC {delta_bic:.1f}: {strength} evidence for the linear law over the constant one"
+
+
+@pytest.mark.parametrize("p_value, words", [(0.4, "the scatter is what the errors predict"),
+                                            (0.01, "somewhat larger than the errors predict"),
+                                            (1e-6, "far larger than the errors predict"),
+                                            (0.9999, "smaller than the errors predict")])
+def test_chi2_in_words_follows_the_p_value(p_value, words):
+    assert words in scatter_words({"chi2_per_dof": 1.1, "dof": 8, "p_value": p_value})
+    assert "cannot be judged" in scatter_words({"chi2_per_dof": None, "dof": 0, "p_value": None})
+
+
+def test_agreement_in_words():
+    # 0.01 apart with a combined se of 0.0141: within 1.96 se
+    assert agreement_words(1.00, 0.01, 1.01, 0.01) == "agrees within the errors"
+    # 0.1 below a prediction of 1.0 with a combined se of 0.01: 10 % and 10 se
+    assert agreement_words(0.90, None, 1.00, 0.01) == "10.0 % lower than predicted (10 se)"
+
+
+def test_report_says_in_words_what_bic_chi2_and_the_theory_checks_mean(run):
+    html = run["report.html"].read_text(encoding="utf-8")
+    fit = json.loads(run["fit.json"].read_text(encoding="utf-8"))
+    restitution, models = fit["restitution"], fit["restitution_models"]
+    result = html[html.index("<h2>Result</h2>"):html.index("<h2>Restitution models</h2>")]
+    assert f"p = {restitution['p_value']:.2g}: {restitution['verdict']}; <span class='words'>" \
+           f"{escape(scatter_words(restitution))}</span>" in result
+    chosen = restitution["model"]
+    for name, model in models.items():  # the chosen law against every other not rejected, by the BICs in fit.json
+        if name == chosen or model["verdict"] == "rejected":
+            continue
+        difference = model["bic"] - models[chosen]["bic"]
+        better, worse = (chosen, name) if difference >= 0 else (name, chosen)
+        assert f"ΔBIC {abs(difference):.1f}: " in result and escape(f"evidence for '{better}'") in result
+    drag = fit["drag"]
+    section = html[html.index("<h2>Drag</h2>"):html.index("<h2>Theory checks</h2>")]
+    winner = "quadratic drag over none" if drag["bic_quadratic_drag"] < drag["bic_no_drag"] else \
+        "no drag over quadratic drag"
+    assert f"ΔBIC {abs(drag['bic_quadratic_drag'] - drag['bic_no_drag']):.1f}: " in section and winner in section
+    theory = html[html.index("<h2>Theory checks</h2>"):html.index("<h2>Contact time</h2>")]
+    first = fit["theory"]["heights"][0]
+    assert escape(agreement_words(first["measured_m"], first["measured_se_m"], first["predicted_m"],
+                                  first["predicted_se_m"])) in theory

@@ -106,8 +106,13 @@ def _parser():
 
     summary = sub.add_parser("summary", help="batch summary table (CSV, HTML) over fit results")
     summary.add_argument("fits", nargs="+", help="fit.json files, one per recording")
-    summary.add_argument("--csv", required=True)
-    summary.add_argument("--html", required=True)
+    summary.add_argument("--csv", required=True, help="summary table to write (CSV, SI units in the column names)")
+    summary.add_argument("--html", required=True, help="summary page to write (HTML), each recording linked to the "
+                                                       "report.html beside its fit.json")
+    summary.add_argument("--samples", help="the sample sheet (tab-separated, a sample_id column): its columns the "
+                                           "workflow does not read (surface, temperature …) are carried into the "
+                                           "summary, with e charted against each numeric one")
+    summary.add_argument("--figure", help="that chart of e against the sheet's numeric columns to write (PNG)")
 
     qc = sub.add_parser("qc", help="batch QC report: per-ball ITF verdicts, batch statistics, control chart")
     qc.add_argument("fits", nargs="+", help="fit.json files, one per recording (drop) of the batch")
@@ -170,7 +175,7 @@ def _run(args):
         stages.report(args.trajectory, args.flights, args.impacts, args.analysis, args.fit, args.html, args.figure,
                       args.contact_sheet)
     elif args.command == "summary":
-        stages.summary(args.fits, args.csv, args.html)
+        stages.summary(args.fits, args.csv, args.html, args.samples, args.figure)
     elif args.command == "qc":
         stages.qc(args.fits, args.batch, args.html, args.figure, args.csv, args.ball_ids, settings)
 
@@ -178,7 +183,7 @@ def _run(args):
 #: The outputs of each stage, by argument name.
 _OUTPUTS = {"measure": ["out", "track"], "overlay": ["out", "clip"], "sound-video": ["out", "summary"],
             "analyse": ["impacts", "flights", "summary"], "fit": ["out"],
-            "report": ["html", "figure"], "summary": ["csv", "html"], "qc": ["html", "figure", "csv"]}
+            "report": ["html", "figure"], "summary": ["csv", "html", "figure"], "qc": ["html", "figure", "csv"]}
 #: Outputs a stage writes whole before a later step of it may fail, and keeps then: a clip refused after
 #: tracking keeps its tracked table, which shows why.
 _KEPT_ON_FAILURE = {"measure": ["track"]}

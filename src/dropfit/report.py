@@ -9,7 +9,11 @@ from __future__ import annotations
 import base64
 import io
 import math
+import os
+from collections import Counter
+from datetime import datetime, timezone
 from html import escape
+from urllib.parse import quote
 
 import matplotlib
 import matplotlib.ticker
@@ -20,6 +24,7 @@ import matplotlib.pyplot as plt  # noqa: E402  (must follow matplotlib.use)
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
+from . import __version__  # noqa: E402
 from .errors import shown  # noqa: E402
 from .files import atomic_output  # noqa: E402
 from .physics import flight_height  # noqa: E402
@@ -33,29 +38,30 @@ BATCH_COLUMNS = ["sample_id", "status", "ball_type", "n_impacts", "restitution_m
                  "e_ci95_high", "e_speed_m_s", "e1", "e1_se", "drop_height_m", "itf_rebound_m", "itf_rebound_se_m",
                  "itf_verdict", "drag_model", "error"]
 
-_BATCH_HEADERS = {
-    "sample_id": "sample id", "status": "status", "ball_type": "ball", "n_impacts": "impacts fitted",
-    "restitution_model": "e model", "e": "e at v₁ (1)", "e_se": "se(e) (1)", "e_ci95_low": "e 95 % low (1)",
-    "e_ci95_high": "e 95 % high (1)", "e_speed_m_s": "v₁ (m/s)", "e1": "e₁ (1)", "e1_se": "se(e₁) (1)",
-    "drop_height_m": "drop height (m)", "itf_rebound_m": "ITF rebound (m)", "itf_rebound_se_m": "se(rebound) (m)",
-    "itf_verdict": "ITF verdict", "drag_model": "drag model", "error": "error",
-}
-
 _CSS = """
 body { font-family: system-ui, sans-serif; max-width: 70em; margin: 1em auto; padding: 0 1em; color: #222; }
+body.wide { max-width: none; padding: 0 0.5em; }
+h1, h2, p, li, dd { overflow-wrap: anywhere; }
 table { border-collapse: collapse; margin: 0.5em 0; }
-th, td { border: 1px solid #bbb; padding: 0.2em 0.6em; }
-td.num { text-align: right; font-variant-numeric: tabular-nums; }
+th, td { border: 1px solid #bbb; padding: 0.2em 0.5em; overflow-wrap: break-word; }
+td.reason { overflow-wrap: anywhere; }
+td.pm { text-align: right; font-variant-numeric: tabular-nums; }
+.nowrap { white-space: nowrap; }
+td.num { text-align: right; font-variant-numeric: tabular-nums; white-space: nowrap; }
 th { background: #eee; }
-dl { display: grid; grid-template-columns: max-content auto; gap: 0.2em 1em; }
+table.batch { font-size: 0.85em; }
+dl { display: grid; grid-template-columns: max-content minmax(0, 1fr); gap: 0.2em 1em; }
 dt { font-weight: bold; }
 dd { margin: 0; }
+.run { background: #f4f4f8; border: 1px solid #ccd; border-radius: 0.3em; padding: 0.3em 0.8em; font-size: 0.9em; }
+.words { color: #444; }
 .verdict { display: inline-block; font-size: 1.6em; font-weight: bold; padding: 0.2em 0.8em; border-radius: 0.3em; }
 .verdict-pass { background: #c8f0c8; }
 .verdict-fail { background: #f6c6c6; }
 .verdict-indeterminate { background: #f6e6b0; }
 .verdict-not-applicable { background: #e4e4e4; }
 .verdict-not-analysed { background: #e4e4e4; }
+.verdict-not-judged { background: #e4e4e4; }
 .verdict-cell { padding: 0 0.4em; border-radius: 0.2em; }
 tr.failed td { background: #fbe0e0; }
 code { word-break: break-all; }
@@ -129,11 +135,20 @@ def _estimate(est, unit=""):
             f"(95 % interval {format_interval(est.get('ci95'), est.get('se'))}{suffix})")
 
 
+def _number_cell(html):
+    """(content, CSS class) of a number cell: kept on one line, but ``value ± se`` may put ``± se`` on a
+    line of its own (a table of many such columns still fits the page)."""
+    if " ± " not in html:
+        return html, "num"
+    value, se = html.split(" ± ", 1)
+    return f'<span class="nowrap">{value}</span> <span class="nowrap">± {se}</span>', "pm"
+
+
 def _table(headers, rows):
     """HTML table; ``headers`` are plain text, cells already-escaped HTML (numbers right-aligned)."""
     head = "".join(f"<th>{escape(header)}</th>" for header in headers)
     body = "".join(
-        "<tr>" + "".join(f'<td class="num">{cell}</td>' if numeric else f"<td>{cell}</td>"
+        "<tr>" + "".join('<td class="{1}">{0}</td>'.format(*_number_cell(cell)) if numeric else f"<td>{cell}</td>"
                          for cell, numeric in row) + "</tr>\n"
         for row in rows)
     return f"<table>\n<tr>{head}</tr>\n{body}</table>"
@@ -144,11 +159,14 @@ def _png_img(png, alt):
     return f'<img alt="{escape(alt)}" src="data:image/png;base64,{base64.b64encode(png).decode("ascii")}">'
 
 
-def _html_page(title, intro_html, body_html):
-    """A self-contained HTML page: ``title`` (plain text) as title and heading, then the intro and body."""
+def _html_page(title, intro_html, body_html, fits, wide=False):
+    """A self-contained HTML page: ``title`` (plain text) as title and heading, the run stamp of ``fits``
+    (:func:`run_html`), then the intro and body; ``wide`` lets a wide table use the window's width."""
+    body_class = " class='wide'" if wide else ""
     return (f"<!doctype html>\n<html lang='en'>\n<head>\n<meta charset='utf-8'>\n"
-            f"<title>{escape(title)}</title>\n<style>{_CSS}</style>\n</head>\n<body>\n"
-            f"<h1>{escape(title)}</h1>\n{intro_html}\n{body_html}\n</body>\n</html>\n")
+            f"<meta name='viewport' content='width=device-width, initial-scale=1'>\n"
+            f"<title>{escape(title)}</title>\n<style>{_CSS}</style>\n</head>\n<body{body_class}>\n"
+            f"<h1>{escape(title)}</h1>\n{run_html(fits)}\n{intro_html}\n{body_html}\n</body>\n</html>\n")
 
 
 def _sections_html(sections):
@@ -160,6 +178,165 @@ def _definitions(items):
     """HTML definition list from (plain-text term, already-escaped HTML description) pairs."""
     return "<dl>\n" + "".join(f"<dt>{escape(term)}</dt><dd>{description}</dd>\n"
                               for term, description in items) + "</dl>"
+
+
+# --- the run: when, which dropfit, which settings ----------------------------------------------
+
+def _ball_setting(fit):
+    ball = fit.get("ball") or {}
+    return (f"{_text(ball.get('type'))}, radius {_quantity(ball.get('radius_m'), 1e3, '.1f', 'mm')}, "
+            f"mass {_quantity(ball.get('mass_kg'), 1e3, '.1f', 'g')}")
+
+
+def _gravity_setting(config):
+    g = config.get("gravity_m_s2")
+    return MISSING if _missing(g) else (f"{escape(format_pm(g, config.get('gravity_se_m_s2')))} m/s² "
+                                        f"({_text(config.get('gravity_source') or 'given')})")
+
+
+def _itf_setting(config):
+    return (f"rebound {_num(config.get('itf_rebound_min_m'), '.2f')}–{_num(config.get('itf_rebound_max_m'), '.2f')} m "
+            f"from a {_num(config.get('itf_drop_height_m'), '.2f')} m drop (drop heights within "
+            f"±{_num(config.get('itf_drop_height_tolerance_m'), '.2f')} m measured, others predicted)")
+
+
+_DRAG_OPTIONS = {"auto": "auto: fitted where the BIC asks for it", "off": "off: never fitted",
+                 "on": "on: always fitted"}
+
+#: The settings every page shows: label and the HTML text of one fit result's value.
+_SETTINGS = [
+    ("Ball", _ball_setting),
+    ("g", lambda fit: _gravity_setting(fit.get("config") or {})),
+    ("Drag option", lambda fit: _text(_DRAG_OPTIONS.get((fit.get("config") or {}).get("drag"),
+                                                        (fit.get("config") or {}).get("drag")))),
+    ("ITF window", lambda fit: _itf_setting(fit.get("config") or {})),
+    ("Fitted by", lambda fit: f"dropfit {_text(fit.get('dropfit_version'))}"),
+]
+
+
+def _analysed(fits):
+    """The fit results among ``fits`` (failure records and stray JSON left out)."""
+    return [fit for fit in fits if fit.get("status", "ok") != "failed" and isinstance(fit.get("config"), dict)]
+
+
+def run_html(fits, now=None):
+    """The run stamp every page carries: when the page was made, by which dropfit, and the settings
+    the numbers were made with (from the fit results' ``config`` and provenance).
+
+    Parameters
+    ----------
+    fits : list of dict
+        The fit results the page shows (one for a recording's report); failure records are left out.
+        A setting that differs between recordings is listed with how many have each value.
+    now : datetime.datetime, optional
+        The time to show (default: now, UTC).
+
+    Returns
+    -------
+    str
+        An HTML ``<section class="run">``.
+    """
+    now = now or datetime.now(timezone.utc)
+    analysed = _analysed(fits)
+    items = [("Made", f"{now:%Y-%m-%d %H:%M} UTC by dropfit {escape(__version__)}")]
+    if not analysed:
+        items.append(("Settings", "none to show: no recording was analysed"))
+    for label, text_of in _SETTINGS if analysed else []:
+        counts = Counter(text_of(fit) for fit in analysed)
+        if len(counts) == 1:
+            items.append((label, next(iter(counts))))
+        else:
+            items.append((label, "differs: " + "; ".join(f"{value} ({count} recording{'s' * (count != 1)})"
+                                                          for value, count in counts.most_common())))
+    return f'<section class="run">\n{_definitions(items)}\n</section>'
+
+
+# --- plain words beside the statistics ----------------------------------------------------------
+
+#: Kass & Raftery (1995), "Bayes factors", J. Am. Stat. Assoc. 90, 773: the evidence a BIC difference
+#: (≈ 2 ln of the Bayes factor) gives, from its lower bound up.
+_BIC_EVIDENCE = [(10.0, "very strong"), (6.0, "strong"), (2.0, "positive"), (0.0, "weak")]
+
+
+def bic_words(delta_bic, better, worse):
+    """A BIC difference in plain words.
+
+    Parameters
+    ----------
+    delta_bic : float
+        BIC of ``worse`` minus BIC of ``better`` (1, ≥ 0).
+    better, worse : str
+        What the lower and the higher BIC belong to (plain text).
+
+    Returns
+    -------
+    str
+        E.g. "ΔBIC 12: very strong evidence for the linear law over the constant one" (the Kass &
+        Raftery scale); the missing mark without a difference.
+    """
+    if _missing(delta_bic):
+        return MISSING
+    return f"ΔBIC {delta_bic:.1f}: {bic_strength(delta_bic)} evidence for {better} over {worse}"
+
+
+def bic_strength(delta_bic):
+    """How strong the evidence of a BIC difference ``delta_bic`` (≥ 0) is: "weak", "positive", "strong" or
+    "very strong" (Kass & Raftery)."""
+    return next(words for bound, words in _BIC_EVIDENCE if delta_bic >= bound)
+
+
+def scatter_words(model):
+    """What a model's χ² test says about the scatter of the data about it, in plain words.
+
+    Parameters
+    ----------
+    model : dict
+        A model record with ``dof`` and ``p_value`` (the upper tail of its χ²).
+
+    Returns
+    -------
+    str
+        E.g. "the scatter is what the errors predict" (P_QUESTIONABLE ≤ p ≤ 1 − P_REJECTED), "somewhat
+        larger" (questionable), "far larger" (rejected), "smaller" (p > 1 − P_REJECTED).
+    """
+    p_value, dof = model.get("p_value"), model.get("dof")
+    if not dof or _missing(p_value):
+        return "no degrees of freedom left: the scatter cannot be judged"
+    if p_value < P_REJECTED:
+        return ("the scatter is far larger than the errors predict (the law misses the data, or the errors are "
+                "too small)")
+    if p_value < P_QUESTIONABLE:
+        return "the scatter is somewhat larger than the errors predict"
+    if p_value > 1.0 - P_REJECTED:
+        return "the scatter is smaller than the errors predict (the errors may be too large)"
+    return "the scatter is what the errors predict"
+
+
+def agreement_words(measured, measured_se, predicted, predicted_se):
+    """How a measured value compares with a theory's prediction, in plain words.
+
+    Parameters
+    ----------
+    measured, predicted : float
+        The two values, in the same unit.
+    measured_se, predicted_se : float or None
+        Their standard errors (missing ones count as 0).
+
+    Returns
+    -------
+    str
+        "agrees within the errors" when the difference is within 1.96 combined standard errors, else
+        e.g. "8.0 % lower than predicted (61 se)"; the missing mark if either value is missing.
+    """
+    if _missing(measured) or _missing(predicted) or predicted == 0:
+        return MISSING
+    se = math.hypot(0.0 if _missing(measured_se) else measured_se, 0.0 if _missing(predicted_se) else predicted_se)
+    difference = measured - predicted
+    if se > 0 and abs(difference) <= Z95 * se:
+        return "agrees within the errors"
+    direction = "lower" if difference < 0 else "higher"
+    beyond = f" ({abs(difference) / se:.0f} se)" if se > 0 else ""
+    return f"{100 * abs(difference / predicted):.1f} % {direction} than predicted{beyond}"
 
 
 # --- figure -------------------------------------------------------------------------------------
@@ -453,6 +630,28 @@ def _impacts_used(restitution):
         f"impact {item['impact']} ({escape(item['note'])})" for item in excluded)
 
 
+def _model_name(name):
+    """A restitution model as named in sentences: its name and law."""
+    return f"'{name}' ({LAWS[name]})"
+
+
+def _evidence(fit):
+    """The chosen model's BIC against every other model fitted and not rejected, in plain words."""
+    models = fit["restitution_models"]
+    chosen = fit["restitution"]["model"]
+    others = sorted((name for name, model in models.items()
+                     if name != chosen and model.get("verdict") != "rejected" and not _missing(model.get("bic"))),
+                    key=lambda name: models[name]["bic"])
+    if not others or _missing(models[chosen].get("bic")):
+        return "no other model to compare with"
+    lines = []
+    for name in others:
+        difference = models[name]["bic"] - models[chosen]["bic"]
+        better, worse = (chosen, name) if difference >= 0 else (name, chosen)
+        lines.append(bic_words(abs(difference), _model_name(better), _model_name(worse)))
+    return "<br>".join(escape(line) for line in lines)
+
+
 def _section_result(fit):
     """The headline: the chosen model with its parameters and e at the first fitted impact's speed."""
     restitution = fit["restitution"]
@@ -476,7 +675,9 @@ def _section_result(fit):
         e1 = restitution["e1"]
         rows.append(("e₁ measured", escape(format_pm(e1["value"], e1["se"]))))
     rows += [
-        ("Goodness of fit", escape(_goodness(restitution))),
+        ("Goodness of fit", f"{escape(_goodness(restitution))}; <span class='words'>"
+                            f"{escape(scatter_words(restitution))}</span>"),
+        ("Evidence", _evidence(fit)),
         ("Uncertainty", _text(restitution.get("note"))),
         ("Why this model", _text(restitution.get("why"))),
         ("Impacts used", _impacts_used(restitution)),
@@ -500,11 +701,16 @@ def _section_models(fit):
             parameters = "; ".join(f"{_parameter_label(key)} = {_estimate(value, _unit(value))}"
                                    for key, value in model["parameters"].items())
         reference = model["e_reference"]
+        scatter = scatter_words(model)
+        delta = model["delta_bic"]
+        evidence = ("" if _missing(delta) else "lowest BIC" if delta == 0
+                    else f"{bic_strength(delta)} evidence against it")
         rows.append([(("▶ " if name == chosen else "") + escape(name), False), (escape(model["law"]), False),
                      (escape(parameters), False), (escape(format_pm(reference["value"], reference["se"])), True),
                      (_num(model.get("chi2_per_dof"), ".3g"), True), (escape(p_value_text(model["p_value"])), True),
-                     (_text(model["verdict"]), False), (_num(model["birge_factor"], ".3g"), True),
-                     (_num(model["delta_bic"], ".1f"), True)])
+                     (f"{_text(model['verdict'])}: <span class='words'>{escape(scatter)}</span>", False),
+                     (_num(model["birge_factor"], ".3g"), True),
+                     (f"{_num(delta, '.1f')} <span class='words'>{escape(evidence)}</span>", False)])
     not_fitted = "".join(f"<li>{escape(name)} ({escape(LAWS[name])}): not fitted, {escape(reason)}</li>\n"
                          for name, reason in restitution.get("not_fitted", {}).items())
     rules = (f"Each model is tested by its own χ²: it fits for p ≥ {P_QUESTIONABLE:g}; it is questionable for "
@@ -538,6 +744,16 @@ def _section_itf(fit):
     ])
 
 
+def _drag_evidence(drag):
+    """The BIC of the flights with and without drag in plain words."""
+    without, with_drag = drag.get("bic_no_drag"), drag.get("bic_quadratic_drag")
+    if _missing(without) or _missing(with_drag):
+        return "not compared: the drag was fixed by the --drag option"
+    if with_drag < without:
+        return bic_words(without - with_drag, "quadratic drag", "none")
+    return bic_words(with_drag - without, "no drag", "quadratic drag")
+
+
 def _section_drag(fit):
     drag = fit["drag"]
     return _definitions([
@@ -545,6 +761,7 @@ def _section_drag(fit):
         ("k", escape(_estimate(drag.get("k_per_m"), "1/m"))),
         ("BIC, no drag", _num(drag.get("bic_no_drag"), ".1f")),
         ("BIC, quadratic drag", _num(drag.get("bic_quadratic_drag"), ".1f")),
+        ("Evidence", escape(_drag_evidence(drag))),
         ("Why", _text(drag.get("why"))),
     ] + ([("Note", _text(drag["note"]))] if drag.get("note") else []))
 
@@ -555,13 +772,21 @@ def _section_theory(fit):
              (escape(format_pm(h["measured_m"], h["measured_se_m"])), True),
              (escape(format_pm(h["predicted_m"], h["predicted_se_m"])), True),
              (_num(None if _missing(h["measured_m"]) or _missing(h["predicted_m"])
-                   else h["measured_m"] / h["predicted_m"], ".3f"), True)]
+                   else h["measured_m"] / h["predicted_m"], ".3f"), True),
+             (escape(agreement_words(h["measured_m"], h["measured_se_m"], h["predicted_m"], h["predicted_se_m"])),
+              False)]
             for h in theory["heights"]]
-    heights = _table(["bounce n", "measured hₙ (m)", "predicted e²ⁿh₀ (m)", "measured / predicted (1)"], rows)
+    heights = ("<p>The seed's prediction hₙ = e²ⁿh₀ takes one e for every impact and no air: drag lowers "
+               "the measured heights below it, an e that changes with speed bends them away from it.</p>\n"
+               + _table(["bounce n", "measured hₙ (m)", "predicted e²ⁿh₀ (m)", "measured / predicted (1)",
+                         "in words"], rows))
     total = theory["total_bouncing_time"]
     times = _definitions([
         ("Total bouncing time, measured", f"{_num(total.get('measured_s'), '.3f')} s"),
         ("Total bouncing time t∞, predicted", escape(_estimate(total.get("predicted"), "s"))),
+        ("Measured against predicted", escape(agreement_words(total.get("measured_s"), None,
+                                                              (total.get("predicted") or {}).get("value"),
+                                                              (total.get("predicted") or {}).get("se")))),
         ("Note", _text(total.get("note"))),
     ])
     return heights + "\n" + times
@@ -739,7 +964,7 @@ def recording_report_html(trajectory, flights, impacts, fit, png, contact_sheet_
              f"<p>Heights are of the ball centre above the contact height "
              f"({escape(_estimate(fit.get('contact_height_m'), 'm'))} above the sensor zero); "
              f"{len(flights)} flights fitted.</p>")
-    return _html_page(f"dropfit report: {sample_id}", intro, _sections_html(sections))
+    return _html_page(f"dropfit report: {sample_id}", intro, _sections_html(sections), [fit])
 
 
 def write_recording_report(trajectory, flights, impacts, analysis, fit, html_path, figure_path, contact_sheet_png=None):
@@ -795,7 +1020,7 @@ def _batch_row(fit):
     }
 
 
-def batch_rows(fits):
+def batch_rows(fits, extras=None):
     """Summary table of a batch: one row per recording, failed ones with their message.
 
     Parameters
@@ -803,6 +1028,9 @@ def batch_rows(fits):
     fits : list of dict
         Fit results (``fit.json``), or failure records ``{"status": "failed", "error": ...,
         "sample_id": ...}``.
+    extras : pandas.DataFrame, optional
+        Free columns of the sample sheet by ``sample_id`` (:func:`sample_sheet_extras`), carried into
+        the table after :data:`BATCH_COLUMNS` (empty where a recording is not in the sheet).
 
     Returns
     -------
@@ -811,30 +1039,179 @@ def batch_rows(fits):
         first fitted impact's speed (for a constant e, e; for ``per_impact``, e₁) with se and 95 %
         interval (1), that speed ``e_speed_m_s`` (m/s), the first fitted impact's own e ``e1`` with
         se (1), drop height and ITF rebound with its se (m); NaN where not applicable (e.g. every
-        number of a failed recording).
+        number of a failed recording); then the columns of ``extras``.
     """
     table = pd.DataFrame([_batch_row(fit) for fit in fits], columns=BATCH_COLUMNS)
     numeric = ["e", "e_se", "e_ci95_low", "e_ci95_high", "e_speed_m_s", "e1", "e1_se", "drop_height_m",
                "itf_rebound_m", "itf_rebound_se_m"]
     table[numeric] = table[numeric].astype(float)
     table["n_impacts"] = table["n_impacts"].astype("Int64")
+    if extras is not None and len(extras.columns):
+        table = table.join(extras, on="sample_id")
     return table
 
 
-# Each number is shown to the precision of the standard error in the named column (se to 2 figures).
-_BATCH_PRECISION_FROM = {"e": "e_se", "e_se": "e_se", "e_ci95_low": "e_se", "e_ci95_high": "e_se",
-                         "e_speed_m_s": None, "e1": "e1_se", "e1_se": "e1_se", "drop_height_m": None,
-                         "itf_rebound_m": "itf_rebound_se_m",
-                         "itf_rebound_se_m": "itf_rebound_se_m"}
+#: Sample-sheet columns the workflow reads besides the options' own (:data:`dropfit.settings.OPTIONS`).
+WORKFLOW_SHEET_COLUMNS = ("sample_id", "path", "batch", "ball_id")
 
 
-def batch_report_html(table):
-    """HTML page of a batch summary table (from :func:`batch_rows`), failed recordings highlighted.
+def sample_sheet_extras(sheet):
+    """The free columns of a sample sheet: those the workflow does not read (surface, temperature, …).
+
+    Parameters
+    ----------
+    sheet : pandas.DataFrame
+        The sample sheet as text (every cell a string, empty for none), with a ``sample_id`` column of
+        unique ids.
+
+    Returns
+    -------
+    pandas.DataFrame
+        Indexed by ``sample_id``, one column per free column in the sheet's order: numbers (float, NaN
+        where empty) where every given cell is a number, else text (None where empty). A column named
+        as a summary column gets " (sample sheet)" after its name.
+    """
+    from .settings import OPTIONS
+
+    used = set(WORKFLOW_SHEET_COLUMNS) | {name for name, option in OPTIONS.items() if option.column}
+    extras = pd.DataFrame(index=pd.Index(sheet["sample_id"], name="sample_id"))
+    for column in sheet.columns:
+        if column in used:
+            continue
+        text = sheet[column].str.strip().to_numpy()
+        given = text != ""
+        numbers = pd.to_numeric(pd.Series(text), errors="coerce").to_numpy(dtype=float)
+        name = f"{column} (sample sheet)" if column in BATCH_COLUMNS else column
+        if given.any() and np.isfinite(numbers[given]).all():
+            extras[name] = np.where(given, numbers, np.nan)
+        else:
+            extras[name] = np.where(given, text, None)
+    return extras
+
+
+def numeric_extras(table):
+    """The free sample-sheet columns of a summary table (:func:`batch_rows`) that hold numbers."""
+    return [column for column in table.columns[len(BATCH_COLUMNS):]
+            if pd.api.types.is_float_dtype(table[column]) and table[column].notna().any()]
+
+
+def extras_png(table):
+    """e of every analysed recording against each numeric free column of the sample sheet (PNG bytes).
 
     Parameters
     ----------
     table : pandas.DataFrame
-        The batch summary table.
+        Summary table of :func:`batch_rows` with the sheet's free columns.
+
+    Returns
+    -------
+    bytes
+        One panel per numeric free column: the chosen model's e at v₁ with its 95 % interval (1)
+        against the column's value; without such a column a chart that says so.
+    """
+    columns = numeric_extras(table)
+    analysed = table[(table["status"] != "failed") & table["e"].notna()]
+    n_cols = min(3, max(1, len(columns)))
+    n_rows = max(1, math.ceil(len(columns) / n_cols))
+    fig, axes = plt.subplots(n_rows, n_cols, figsize=(4.2 * n_cols, 3.4 * n_rows), layout="constrained",
+                             squeeze=False)
+    for ax in axes.flat[len(columns):]:
+        ax.set_axis_off()
+    if not columns:
+        axes[0, 0].text(0.5, 0.5, "no numeric free column in the sample sheet", ha="center", va="center")
+    for ax, column in zip(axes.flat, columns):
+        ax.errorbar(analysed[column], analysed["e"], yerr=[analysed["e"] - analysed["e_ci95_low"],
+                                                           analysed["e_ci95_high"] - analysed["e"]],
+                    fmt="o", ms=4, capsize=3, color="tab:blue")
+        # column names are the user's text: drawn literally, never as mathtext
+        ax.set_xlabel(shown(column, 40), parse_math=False)
+        ax.set_ylabel("e at v₁, 95 % interval (1)")
+        ax.grid(alpha=0.3)
+    fig.suptitle("e against the sample sheet's numeric columns", fontsize=11)
+    return _png_bytes(fig)
+
+
+def report_href(fit_path, page_path):
+    """The relative link from a batch page at ``page_path`` to the report beside a recording's
+    ``fit_path`` (``report.html`` in the same directory), URL-quoted."""
+    target = os.path.join(os.path.dirname(os.path.abspath(fit_path)), "report.html")
+    relative = os.path.relpath(target, os.path.dirname(os.path.abspath(page_path)))
+    return quote(relative.replace(os.sep, "/"))
+
+
+#: What a verdict cell says: an ITF verdict, or why there is none (in words as well as in colour).
+_VERDICT_WORDS = {"not applicable": "not judged", None: "not judged"}
+_VERDICT_LEGEND = ("ITF verdict: <span class='verdict-cell verdict-pass'>pass</span> the 95 % interval of the "
+                   "254 cm rebound lies inside the window; <span class='verdict-cell verdict-fail'>fail</span> "
+                   "wholly outside; <span class='verdict-cell verdict-indeterminate'>indeterminate</span> it "
+                   "straddles a limit; <span class='verdict-cell verdict-not-judged'>not judged</span> no ITF "
+                   "test for this ball; <span class='verdict-cell verdict-not-analysed'>not analysed</span> the "
+                   "recording failed.")
+
+
+def _verdict_cell(verdict):
+    """A verdict in words on its colour (:data:`_VERDICT_LEGEND`)."""
+    words = _VERDICT_WORDS.get(verdict, verdict) if not _missing(verdict) else "not judged"
+    return f'<span class="verdict-cell verdict-{escape(str(words)).replace(" ", "-")}">{escape(str(words))}</span>'
+
+
+def _breakable(text):
+    """Escaped text that may wrap after each ``_``, ``-`` and ``.`` (a sample id in a narrow column)."""
+    escaped = _text(text)
+    for mark in "_-.":
+        escaped = escaped.replace(mark, mark + "<wbr>")
+    return escaped
+
+
+def _linked(text, href):
+    """``text`` (plain, an id) as a link to ``href`` (already quoted), or alone without one."""
+    return _breakable(text) if href is None else f'<a href="{escape(href)}">{_breakable(text)}</a>'
+
+
+def _pm_cell(value, se):
+    """``value ± se`` in a summary table cell (:func:`_number_cell`)."""
+    return _number_cell(escape(format_pm(value, se)))
+
+
+def _summary_cells(row, href, extras):
+    """The HTML cells of one summary row: (content, CSS class: "num", "pm", "reason" or "" [, colspan]);
+    ``extras`` maps each free column to whether it holds numbers."""
+    recording = (_linked(row["sample_id"], href), "")
+    if row["status"] == "failed":
+        return [recording, (MISSING, ""), (_verdict_cell("not analysed"), ""),
+                (f"<b>failed:</b> {_text(row['error'])}", "reason", 8 + len(extras))]
+    model = row["restitution_model"]
+    law = f" <span class='words'>({escape(LAWS[model])})</span>" if model in LAWS else ""
+    cells = [recording, (_breakable(row["ball_type"]), ""), (_verdict_cell(row["itf_verdict"]), ""),
+             (_breakable(model) + law, ""), _pm_cell(row["e"], row["e_se"]),
+             (_num(row["e_speed_m_s"], ".3f"), "num"), _pm_cell(row["e1"], row["e1_se"]),
+             (_text(row["n_impacts"]), "num"), (_num(row["drop_height_m"], ".4f"), "num"),
+             _pm_cell(row["itf_rebound_m"], row["itf_rebound_se_m"]), (_text(row["drag_model"]), "")]
+    for column, numeric in extras.items():
+        cells.append((_num(row[column], ".6g"), "num") if numeric else (_breakable(row[column]), ""))
+    return cells
+
+
+def _cell_html(cell):
+    content, css_class, *span = cell
+    attributes = (f' class="{css_class}"' if css_class else "") + (f' colspan="{span[0]}"' if span else "")
+    return f"<td{attributes}>{content}</td>"
+
+
+def batch_report_html(table, fits, links=None, extras_figure=None):
+    """HTML page of a batch summary table (from :func:`batch_rows`): one row per recording linked to
+    its report, the ITF verdict in colour and words, failed recordings with their reason.
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        The batch summary table, with the sample sheet's free columns after :data:`BATCH_COLUMNS`.
+    fits : list of dict
+        The fit results of the rows (the settings shown at the top, :func:`run_html`).
+    links : list of str, optional
+        Each row's link to its report (:func:`report_href`); none without.
+    extras_figure : bytes, optional
+        The chart of e against the numeric free columns (:func:`extras_png`), shown under the table.
 
     Returns
     -------
@@ -842,27 +1219,28 @@ def batch_report_html(table):
         The HTML page.
     """
     failed = table["status"] == "failed"
-    head = "".join(f"<th>{escape(_BATCH_HEADERS[column])}</th>" for column in BATCH_COLUMNS)
+    extras = {column: pd.api.types.is_float_dtype(table[column]) for column in table.columns[len(BATCH_COLUMNS):]}
+    links = links if links is not None else [None] * len(table)
+    headers = ["recording (report)", "ball", "ITF verdict", "e law", "e at v₁ ± se (1)", "v₁ (m/s)", "e₁ ± se (1)",
+               "impacts fitted", "drop height (m)", "ITF rebound ± se (m)", "drag"] + list(extras)
+    head = "".join(f"<th>{_breakable(header)}</th>" for header in headers)
     body = []
-    for is_failed, (_, row) in zip(failed, table[BATCH_COLUMNS].iterrows()):
-        cells = []
-        for column, value in row.items():
-            if column in _BATCH_PRECISION_FROM:
-                se = row[_BATCH_PRECISION_FROM[column]] if _BATCH_PRECISION_FROM[column] else None
-                digits = 4 if _missing(se) or se <= 0 else _decimals(se)
-                cells.append(f'<td class="num">{_num(value, f".{digits}f")}</td>')
-            elif column == "n_impacts":
-                cells.append(f'<td class="num">{_text(value)}</td>')
-            else:
-                cells.append(f"<td>{_text(value)}</td>")
-        row_class = ' class="failed"' if is_failed else ""
-        body.append(f"<tr{row_class}>{''.join(cells)}</tr>")
+    for href, (_, row) in zip(links, table.iterrows()):
+        row_class = ' class="failed"' if row["status"] == "failed" else ""
+        body.append(f"<tr{row_class}>{''.join(_cell_html(cell) for cell in _summary_cells(row, href, extras))}</tr>")
     rows = "\n".join(body)
-    return _html_page("dropfit batch summary",
-                      f"<p>{len(table)} recordings: {int((~failed).sum())} analysed, {int(failed.sum())} failed. "
-                      f"e is the chosen model's e at the first fitted impact's speed v₁ (a constant e at every "
-                      f"speed; with no law, per_impact, the first impact's own e); e₁ is that impact's own e.</p>",
-                      f"<table>\n<tr>{head}</tr>\n{rows}\n</table>")
+    figure = ""
+    if extras_figure is not None:
+        figure = (f"<h2>e against the sample sheet's columns</h2>\n<p>Every analysed recording's e at v₁ with "
+                  f"its 95 % interval against each numeric free column of the sample sheet "
+                  f"({escape(', '.join(numeric_extras(table))) or 'none'}).</p>\n"
+                  + _png_img(extras_figure, "e against the sample sheet's numeric columns"))
+    intro = (f"<p>{len(table)} recordings: {int((~failed).sum())} analysed, {int(failed.sum())} failed. "
+             f"e is the chosen law's e at the first fitted impact's speed v₁ (a constant e at every speed; with no "
+             f"law, per_impact, the first impact's own e); e₁ is that impact's own e. Every number with its "
+             f"interval is in the CSV.</p>\n<p>{_VERDICT_LEGEND}</p>")
+    return _html_page("dropfit batch summary", intro,
+                      f"<table class='batch'>\n<tr>{head}</tr>\n{rows}\n</table>\n{figure}", fits, wide=True)
 
 
 # --- batch QC report ----------------------------------------------------------------------------
@@ -948,8 +1326,6 @@ def _cm_interval(low_m, high_m, se_m):
     return escape(format_interval([100 * low_m, 100 * high_m], 100 * se_m))
 
 
-def _verdict_cell(verdict):
-    return f'<span class="verdict-cell verdict-{escape(str(verdict)).replace(" ", "-")}">{_text(verdict)}</span>'
 
 
 def _qc_summary(statistics, window):
@@ -994,12 +1370,13 @@ def _qc_balls_table(balls):
                    "drop-to-drop sd (cm)", "se from", "e ± se (1)", "drop-to-drop sd of e (1)", "ITF verdict"], rows)
 
 
-def _qc_drops_table(recordings):
-    rows = [[(_text(row.sample_id), False), (_text(row.ball_id), False), (_text(row.status), False),
+def _qc_drops_table(recordings, links):
+    rows = [[(_linked(row.sample_id, href), False), (_text(row.ball_id), False), (_text(row.status), False),
              (_cm_pm(row.itf_rebound_m, row.itf_rebound_se_m), True), (escape(format_pm(row.e, row.e_se)), True),
-             (_text(row.itf_verdict), False)]
-            for row in recordings.itertuples(index=False)]
-    return _table(["recording", "ball", "status", "rebound ± se (cm)", "e ± se (1)", "ITF verdict of the drop"], rows)
+             (_verdict_cell("not analysed" if row.status == "failed" else row.itf_verdict), False)]
+            for href, row in zip(links, recordings.itertuples(index=False))]
+    return _table(["recording (report)", "ball", "status", "rebound ± se (cm)", "e ± se (1)",
+                   "ITF verdict of the drop"], rows)
 
 
 def _qc_failed_list(failed):
@@ -1010,7 +1387,7 @@ def _qc_failed_list(failed):
     return f"<ul>\n{items}</ul>"
 
 
-def qc_report_html(batch, recordings, balls, statistics, failed, window, png):
+def qc_report_html(batch, recordings, balls, statistics, failed, window, png, fits, links=None):
     """The self-contained batch QC page: batch summary, control chart, per-ball and per-drop tables,
     failed recordings.
 
@@ -1027,6 +1404,10 @@ def qc_report_html(batch, recordings, balls, statistics, failed, window, png):
         The ITF test: ``drop_height_m``, ``rebound_min_m``, ``rebound_max_m`` (m).
     png : bytes
         The control chart, embedded as base64.
+    fits : list of dict
+        The fit results of the recordings (the settings shown at the top, :func:`run_html`).
+    links : list of str, optional
+        Each recording's link to its report (:func:`report_href`); none without.
 
     Returns
     -------
@@ -1041,10 +1422,10 @@ def qc_report_html(batch, recordings, balls, statistics, failed, window, png):
                   "drop-to-drop scatter (sd/√n) and the propagated measurement errors, the 95 % interval "
                   "uses Student's t with n − 1 degrees of freedom (±1.96 se for one drop).</p>\n"
                   + _qc_balls_table(balls)),
-        ("Drops", _qc_drops_table(recordings)),
+        ("Drops", _qc_drops_table(recordings, links if links is not None else [None] * len(recordings))),
         ("Failed recordings", _qc_failed_list(failed)),
     ]
     n_failed = len(failed)
     return _html_page(f"dropfit batch QC: {batch}",
                       f"<p>{len(recordings)} recordings of {len(balls)} balls: {len(recordings) - n_failed} "
-                      f"analysed, {n_failed} failed.</p>", _sections_html(sections))
+                      f"analysed, {n_failed} failed.</p>\n<p>{_VERDICT_LEGEND}</p>", _sections_html(sections), fits)

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import yaml
 
-from .errors import InputError, one_line, shown_path
+from .errors import InputError, one_line, shown, shown_path
 from .files import atomic_output, read_bytes, read_table, write_json, write_table, write_text
 from .fitrecord import analysis_summary, fit_summary
 from .heightlog import read_trajectory
@@ -264,14 +264,45 @@ def _read_fits(fit_paths):
     return rows
 
 
-def summary(fit_paths, csv_path, html_path):
-    """Batch summary over recordings: one row per fit result, failed recordings with their message."""
-    from .report import batch_report_html, batch_rows
+def summary(fit_paths, csv_path, html_path, samples_path=None, figure_path=None):
+    """Batch summary over recordings: one row per fit result, failed recordings with their message, each
+    linked to the report beside its fit result.
 
-    table = batch_rows(_read_fits(fit_paths))
+    With ``samples_path`` (the sample sheet, tab-separated, a ``sample_id`` column) its free columns
+    (:func:`dropfit.report.sample_sheet_extras`) are carried into the table, and e is charted against each
+    numeric one (shown on the page; written as PNG to ``figure_path`` if given).
+    """
+    from .report import batch_report_html, batch_rows, extras_png, report_href, sample_sheet_extras
+
+    fits = _read_fits(fit_paths)
+    table = batch_rows(fits, sample_sheet_extras(read_sample_sheet(samples_path)) if samples_path else None)
+    png = extras_png(table) if samples_path or figure_path else None
     with atomic_output(csv_path) as tmp:
         table.to_csv(tmp, index=False, float_format="%.6g")
-    write_text(html_path, batch_report_html(table))
+    if figure_path is not None:
+        with atomic_output(figure_path) as tmp:
+            tmp.write_bytes(png)
+    write_text(html_path, batch_report_html(table, fits, [report_href(path, html_path) for path in fit_paths], png))
+
+
+def read_sample_sheet(path):
+    """The sample sheet (tab-separated, a ``sample_id`` column of unique ids) as text, empty cells ""."""
+    import pandas as pd
+
+    try:
+        sheet = pd.read_csv(path, sep="\t", dtype=str, keep_default_na=False)
+    except (OSError, ValueError, UnicodeDecodeError) as error:
+        raise InputError(f"{shown_path(path)}: cannot read the sample sheet ({type(error).__name__}: "
+                         f"{one_line(str(error))}); give a tab-separated file with a sample_id column") from None
+    if "sample_id" not in sheet.columns:
+        columns = ", ".join(map(shown, sheet.columns[:8]))
+        raise InputError(f"{shown_path(path)}: no sample_id column (columns: {columns}); separate the columns with "
+                         f"tabs and name the first sample_id")
+    duplicated = sheet["sample_id"][sheet["sample_id"].duplicated()]
+    if len(duplicated):
+        raise InputError(f"{shown_path(path)}: sample_id {shown(duplicated.iloc[0])} appears more than once; "
+                         f"give every recording its own id")
+    return sheet
 
 
 def qc(fit_paths, batch, html_path, figure_path, csv_path, ball_ids=None, settings=None):
@@ -284,13 +315,14 @@ def qc(fit_paths, batch, html_path, figure_path, csv_path, ball_ids=None, settin
     itf_drop_height_m, itf_rebound_min_m, itf_rebound_max_m = (
         settings.itf_drop_height_m, settings.itf_rebound_min_m, settings.itf_rebound_max_m)
     from .batch import ball_rows, batch_statistics, failed_recordings
-    from .report import batch_rows, qc_chart_png, qc_report_html
+    from .report import batch_rows, qc_chart_png, qc_report_html, report_href
 
     ball_ids = list(ball_ids) if ball_ids else [Path(path).parent.name for path in fit_paths]
     if len(ball_ids) != len(fit_paths):
         raise InputError(f"batch {batch}: {len(ball_ids)} ball ids for {len(fit_paths)} fit results; "
                          f"give one ball id per fit result")
-    recordings = batch_rows(_read_fits(fit_paths))
+    fits = _read_fits(fit_paths)
+    recordings = batch_rows(fits)
     recordings.insert(1, "ball_id", ball_ids)
     window = {"drop_height_m": itf_drop_height_m, "rebound_min_m": itf_rebound_min_m,
               "rebound_max_m": itf_rebound_max_m}
@@ -302,4 +334,4 @@ def qc(fit_paths, batch, html_path, figure_path, csv_path, ball_ids=None, settin
     with atomic_output(figure_path) as tmp:
         tmp.write_bytes(png)
     write_text(html_path, qc_report_html(batch, recordings, balls, statistics, failed_recordings(recordings),
-                                         window, png))
+                                         window, png, fits, [report_href(path, html_path) for path in fit_paths]))
