@@ -484,3 +484,19 @@ def with_sound_track(video_path, out_path, samples, rate_hz, sound_start_s=0.0):
             container.mux(sound.encode(block))
         container.mux(sound.encode())
     return out_path
+
+
+#: A short synthetic tennis drop (254 cm, constant e 0.745, a 100 Hz sensor in m) as a scenarios file
+#: (``dropfit synth --scenarios``): the scenario ``tennis_short`` the report tests run through the stages.
+TENNIS_SHORT_SCENARIOS = """\
+scenarios:
+  tennis_short:
+    seed: 3
+    drop_height_m: 2.54
+    release_time_s: 0.3
+    duration_s: 7.0
+    drag_coefficient: 0.55
+    ball: {radius_m: 0.0335, mass_kg: 0.057}
+    restitution: {kind: constant, e0: 0.745}
+    sensor: {sample_rate_hz: 100, noise_m: 0.001, offset_m: 0.12, dropout_fraction: 0.01, unit: m}
+"""

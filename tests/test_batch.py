@@ -1,10 +1,16 @@
 """Batch QC statistics against hand-computed examples and seeded coverage trials."""
 
+from pathlib import Path
+
 import numpy as np
 import pandas as pd
 import pytest
+import yaml
 
 from dropfit.batch import ball_rows, batch_statistics, failed_recordings, mean_over_drops
+from dropfit.report import BATCH_COLUMNS, batch_rows, extras_png, numeric_extras, sample_sheet_extras
+
+REPO = Path(__file__).resolve().parents[1]
 
 #: Student's t quantiles t(0.975, dof) from printed tables, for 1 and 2 degrees of freedom.
 T975 = {1: 12.706, 2: 4.303}
@@ -147,3 +153,34 @@ def test_failed_recordings_keep_their_reason(lot):
         {"sample_id": "b4", "ball_id": "B", "reason": "b4.csv: no bounce found"},
         {"sample_id": "d1", "ball_id": "D", "reason": "d1.csv: the file is empty"},
     ]
+
+
+# --- the sample sheet's free columns in the summary ---------------------------------------------------
+
+def test_sample_sheet_extras_are_the_columns_the_workflow_schema_does_not_name():
+    """Every column of the workflow's sample-sheet schema is the workflow's; any other is carried, numbers
+    as numbers (empty = NaN), text as text, one named as a summary column renamed."""
+    schema = yaml.safe_load((REPO / "workflow" / "schemas" / "samples.schema.yaml").read_text(encoding="utf-8"))
+    workflow = {name: ["1", "2"] for name in schema["properties"]}
+    free = {"surface": ["concrete", ""], "temperature_C": ["21.5", " "], "e": ["high", "low"]}
+    sheet = pd.DataFrame({**workflow, **free, "sample_id": ["a", "b"]}, dtype=str)
+    extras = sample_sheet_extras(sheet)
+    assert list(extras.columns) == ["surface", "temperature_C", "e (sample sheet)"]
+    assert list(extras.index) == ["a", "b"]
+    assert extras.loc["a", "surface"] == "concrete" and pd.isna(extras.loc["b", "surface"])
+    assert extras.loc["a", "temperature_C"] == 21.5 and np.isnan(extras.loc["b", "temperature_C"])
+    table = batch_rows([{"status": "failed", "error": "x", "sample_id": "b"},
+                        {"status": "failed", "error": "y", "sample_id": "not_in_sheet"}], extras)
+    assert table["surface"].isna().all()
+    assert table["e (sample sheet)"].tolist()[0] == "low"
+    assert numeric_extras(table) == []  # temperature only for a, which is not in the table
+    table = batch_rows([{"status": "failed", "error": "x", "sample_id": "a"}], extras)
+    assert numeric_extras(table) == ["temperature_C"]
+
+
+def test_e_against_the_sheet_s_numbers_is_a_png_with_or_without_them():
+    table = pd.DataFrame({"status": ["ok", "ok", "failed"], "e": [0.75, 0.76, np.nan], "e_ci95_low": [0.74, 0.75, np.nan],
+                          "e_ci95_high": [0.76, 0.77, np.nan]}).reindex(columns=BATCH_COLUMNS)
+    with_numbers = table.assign(temperature_C=[20.0, 25.0, 30.0], surface=["a", "b", "c"])
+    for frame in (table, with_numbers):
+        assert extras_png(frame).startswith(b"\x89PNG\r\n\x1a\n")

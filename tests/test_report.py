@@ -11,26 +11,14 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from dropfit import stages
+from dropfit import __version__, stages
 from dropfit.fitrecord import fit_summary
 from dropfit.settings import Ball, Settings
 from dropfit.errors import InputError
-from dropfit import __version__
-from dropfit.report import (agreement_words, batch_report_html, batch_rows, bic_words, format_pm, scatter_words,
-                            run_html)
+from dropfit.report import (agreement_words, batch_report_html, batch_rows, bic_words, format_pm, run_html,
+                            scatter_words)
 
-SCENARIOS = """\
-scenarios:
-  tennis_short:
-    seed: 3
-    drop_height_m: 2.54
-    release_time_s: 0.3
-    duration_s: 7.0
-    drag_coefficient: 0.55
-    ball: {radius_m: 0.0335, mass_kg: 0.057}
-    restitution: {kind: constant, e0: 0.745}
-    sensor: {sample_rate_hz: 100, noise_m: 0.001, offset_m: 0.12, dropout_fraction: 0.01, unit: m}
-"""
+from helpers import TENNIS_SHORT_SCENARIOS
 
 SECTIONS = ["Recording", "Result", "Restitution models", "ITF verdict", "Drag", "Theory checks", "Contact time", "Impacts table", "Figure"]
 
@@ -41,7 +29,7 @@ def run(tmp_path_factory):
     root = tmp_path_factory.mktemp("run")
     paths = {name: root / name for name in ["log.csv", "truth.json", "trajectory.nc", "impacts.csv",
                                             "flights.csv", "analysis.json", "fit.json", "report.html", "figure.png"]}
-    (root / "sc.yaml").write_text(SCENARIOS, encoding="utf-8")
+    (root / "sc.yaml").write_text(TENNIS_SHORT_SCENARIOS, encoding="utf-8")
     stages.synth(root / "sc.yaml", "tennis_short", paths["log.csv"], paths["truth.json"])
     stages.measure(paths["log.csv"], paths["trajectory.nc"], Ball(radius_m=0.0335, mass_kg=0.057, type="tennis"),
                    sample_id="tennis_short")

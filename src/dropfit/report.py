@@ -1068,7 +1068,7 @@ def sample_sheet_extras(sheet):
     -------
     pandas.DataFrame
         Indexed by ``sample_id``, one column per free column in the sheet's order: numbers (float, NaN
-        where empty) where every given cell is a number, else text (None where empty). A column named
+        where empty) where every given cell is a number, else text (missing where empty). A column named
         as a summary column gets " (sample sheet)" after its name.
     """
     from .settings import OPTIONS
