@@ -15,6 +15,7 @@ from dropfit import __version__, stages
 from dropfit.fitrecord import fit_summary
 from dropfit.settings import Ball, Settings
 from dropfit.errors import InputError
+from dropfit.files import write_failure
 from dropfit.report import (agreement_words, batch_report_html, batch_rows, bic_words, format_pm, run_html,
                             scatter_words)
 
@@ -315,6 +316,13 @@ def test_every_page_carries_the_date_the_version_and_the_settings(run, tmp_path)
         assert (f"rebound {config['itf_rebound_min_m']:.2f}–{config['itf_rebound_max_m']:.2f} m from a "
                 f"{config['itf_drop_height_m']:.2f} m drop") in run_block
         assert f"<dd>{fit['ball']['type']}, radius {1e3 * fit['ball']['radius_m']:.1f} mm" in run_block
+
+
+def test_a_failed_recording_s_page_carries_its_reason_the_date_and_the_version(tmp_path):
+    write_failure(tmp_path / "report.html", "t.csv: no samples <b>")
+    html = (tmp_path / "report.html").read_text(encoding="utf-8")
+    assert "<p>t.csv: no samples &lt;b&gt;</p>" in html
+    assert f"UTC by dropfit {__version__}</dd>" in html and "no recording was analysed" in html
 
 
 def test_settings_that_differ_between_recordings_are_counted():

@@ -160,17 +160,9 @@ def write_failure(path, message, figure_png=None):
         with atomic_output(path) as tmp:
             xr.Dataset(attrs={"status": FAILED, "error": message}).to_netcdf(tmp)
     elif suffix in (".html", ".htm"):
-        import base64
-        from html import escape
+        from .report import failure_page_html
 
-        figure = "" if figure_png is None else \
-            (f"<p>What was tracked:</p><img style='max-width: 100%' alt='contact sheet of the video' "
-             f"src='data:image/png;base64,{base64.b64encode(figure_png).decode('ascii')}'>\n")
-        write_text(
-            path,
-            "<!doctype html><meta charset='utf-8'><title>dropfit: failed</title>"
-            f"<h1>Analysis failed</h1><p>{escape(message)}</p>\n{figure}",
-        )
+        write_text(path, failure_page_html(message, figure_png))
     elif suffix == ".png":
         import matplotlib
 

@@ -998,6 +998,14 @@ def write_recording_report(trajectory, flights, impacts, analysis, fit, html_pat
                        encoding="utf-8")
 
 
+def failure_page_html(message, figure_png=None):
+    """The page of a recording that could not be analysed: its one-line reason, the run stamp and, for a
+    refused video, the contact sheet of what was tracked (``figure_png``, PNG bytes)."""
+    figure = "" if figure_png is None else "<p>What was tracked:</p>\n" + _png_img(figure_png,
+                                                                                   "contact sheet of the video")
+    return _html_page("dropfit: analysis failed", f"<p>{_text(message)}</p>", figure, [])
+
+
 # --- batch summary ------------------------------------------------------------------------------
 
 def _batch_row(fit):
