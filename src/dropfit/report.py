@@ -1115,7 +1115,7 @@ def extras_png(table):
     -------
     bytes
         One panel per numeric free column: the chosen model's e at v₁ with its 95 % interval (1)
-        against the column's value; without such a column a chart that says so.
+        against the column's value, one colour per ball type; without such a column a chart that says so.
     """
     columns = numeric_extras(table)
     analysed = table[(table["status"] != "failed") & table["e"].notna()]
@@ -1127,14 +1127,19 @@ def extras_png(table):
         ax.set_axis_off()
     if not columns:
         axes[0, 0].text(0.5, 0.5, "no numeric free column in the sample sheet", ha="center", va="center")
+    balls = analysed["ball_type"].fillna("ball not named")
     for ax, column in zip(axes.flat, columns):
-        ax.errorbar(analysed[column], analysed["e"], yerr=[analysed["e"] - analysed["e_ci95_low"],
-                                                           analysed["e_ci95_high"] - analysed["e"]],
-                    fmt="o", ms=4, capsize=3, color="tab:blue")
+        for ball in sorted(balls.unique()):  # one colour per kind of ball: e of different balls differ anyway
+            drops = analysed[balls == ball]
+            ax.errorbar(drops[column], drops["e"], yerr=[drops["e"] - drops["e_ci95_low"],
+                                                         drops["e_ci95_high"] - drops["e"]],
+                        fmt="o", ms=4, capsize=3, label=ball)
         # column names are the user's text: drawn literally, never as mathtext
         ax.set_xlabel(shown(column, 40), parse_math=False)
         ax.set_ylabel("e at v₁, 95 % interval (1)")
         ax.grid(alpha=0.3)
+    if columns and balls.nunique() > 1:
+        axes[0, 0].legend(fontsize=8)
     fig.suptitle("e against the sample sheet's numeric columns", fontsize=11)
     return _png_bytes(fig)
 
