@@ -1127,7 +1127,7 @@ def extras_png(table):
         ax.set_axis_off()
     if not columns:
         axes[0, 0].text(0.5, 0.5, "no numeric free column in the sample sheet", ha="center", va="center")
-    balls = analysed["ball_type"].fillna("ball not named")
+    balls = analysed["ball_type"].astype(object).fillna("ball not named")
     for ax, column in zip(axes.flat, columns):
         for ball in sorted(balls.unique()):  # one colour per kind of ball: e of different balls differ anyway
             drops = analysed[balls == ball]
