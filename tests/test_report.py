@@ -379,3 +379,6 @@ def test_report_says_in_words_what_bic_chi2_and_the_theory_checks_mean(run):
     first = fit["theory"]["heights"][0]
     assert escape(agreement_words(first["measured_m"], first["measured_se_m"], first["predicted_m"],
                                   first["predicted_se_m"])) in theory
+    total = fit["theory"]["total_bouncing_time"]
+    words = agreement_words(total["measured_s"], None, total["predicted"]["value"], total["predicted"]["se"])
+    assert f"<dt>Measured against predicted</dt><dd>{escape(words)}</dd>" in theory

@@ -766,6 +766,12 @@ def _section_drag(fit):
     ] + ([("Note", _text(drag["note"]))] if drag.get("note") else []))
 
 
+def _against_prediction(measured, predicted):
+    """A value measured without a standard error against a predicted estimate dict, in words (escaped)."""
+    predicted = predicted or {}
+    return escape(agreement_words(measured, None, predicted.get("value"), predicted.get("se")))
+
+
 def _section_theory(fit):
     theory = fit["theory"]
     rows = [[(_text(h["bounce"]), True),
@@ -784,9 +790,7 @@ def _section_theory(fit):
     times = _definitions([
         ("Total bouncing time, measured", f"{_num(total.get('measured_s'), '.3f')} s"),
         ("Total bouncing time t∞, predicted", escape(_estimate(total.get("predicted"), "s"))),
-        ("Measured against predicted", escape(agreement_words(total.get("measured_s"), None,
-                                                              (total.get("predicted") or {}).get("value"),
-                                                              (total.get("predicted") or {}).get("se")))),
+        ("Measured against predicted", _against_prediction(total.get("measured_s"), total.get("predicted"))),
         ("Note", _text(total.get("note"))),
     ])
     return heights + "\n" + times
@@ -897,6 +901,7 @@ def _section_oblique(fit, impacts, path_png):
         ("Horizontal speed at the release u", escape(_estimate(distance.get("release_speed"), "m/s"))),
         ("Distance while bouncing u t∞, predicted", escape(_estimate(distance.get("predicted"), "m"))),
         ("Distance from the release to rest, measured", f"{_num(distance.get('measured_m'), '.3f')} m"),
+        ("Measured against predicted", _against_prediction(distance.get("measured_m"), distance.get("predicted"))),
         ("Note", _text(distance.get("note"))),
     ]) if distance else ""
     return ("<p>Angles of the velocity above the floor; on a smooth floor the tangential velocity is kept and "
