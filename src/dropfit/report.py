@@ -1255,8 +1255,8 @@ def batch_report_html(table, fits, links=None, extras_figure=None):
                   + _png_img(extras_figure, "e against the sample sheet's numeric columns"))
     intro = (f"<p>{len(table)} recordings: {int((~failed).sum())} analysed, {int(failed.sum())} failed. "
              f"e is the chosen law's e at the first fitted impact's speed v₁ (a constant e at every speed; with no "
-             f"law, per_impact, the first impact's own e); e₁ is that impact's own e. Every number with its "
-             f"interval is in the CSV.</p>\n<p>{_VERDICT_LEGEND}</p>")
+             f"law, per_impact, the first impact's own e); e₁ is that impact's own e. The CSV holds the same "
+             f"numbers and e's 95 % interval.</p>\n<p>{_VERDICT_LEGEND}</p>")
     return _html_page("dropfit batch summary", intro,
                       f"<table class='batch'>\n<tr>{head}</tr>\n{rows}\n</table>\n{figure}", fits, wide=True)
 
