@@ -12,6 +12,7 @@ import pandas as pd
 import pytest
 
 from dropfit import __version__, stages
+from dropfit.cli import main
 from dropfit.fitrecord import fit_summary
 from dropfit.settings import Ball, Settings
 from dropfit.errors import InputError
@@ -294,6 +295,18 @@ def test_summary_refuses_a_sample_sheet_it_cannot_use_in_one_line(run, tmp_path)
         with pytest.raises(InputError, match=message):
             stages.summary(fits, tmp_path / "s.csv", tmp_path / "s.html", sheet)
         assert not (tmp_path / "s.csv").exists() and not (tmp_path / "s.html").exists()
+
+
+def test_summary_command_says_what_is_wrong_with_the_sheet_in_one_line(run, tmp_path, capsys):
+    fits = _batch_of_two(run, tmp_path / "results")
+    sheet = tmp_path / "samples.tsv"
+    sheet.write_text("sample_id,surface\ntennis_short,concrete\n", encoding="utf-8")  # commas, not tabs
+    out = tmp_path / "batch"
+    assert main(["summary", *map(str, fits), "--csv", str(out / "s.csv"), "--html", str(out / "s.html"),
+                 "--samples", str(sheet), "--figure", str(out / "s.png")]) == 1
+    error = capsys.readouterr().err
+    assert error.count("\n") == 1 and error.startswith(f"dropfit: error: {sheet}: no sample_id column")
+    assert not out.exists() or not any(out.iterdir())
 
 
 def test_every_page_carries_the_date_the_version_and_the_settings(run, tmp_path):
