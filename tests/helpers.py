@@ -486,6 +486,39 @@ def with_sound_track(video_path, out_path, samples, rate_hz, sound_start_s=0.0):
     return out_path
 
 
+def phyphox_number(value, decimal_point="."):
+    """A number as phyphox's CSV export writes it: Java's DecimalFormat pattern ``0.000000000E0``
+    (``2.500000000E-1``: no plus sign, no leading zeros in the exponent), ``NaN`` for no value."""
+    if not np.isfinite(value):
+        return "NaN"
+    mantissa, exponent = f"{value:.9E}".split("E")
+    return f"{mantissa}E{int(exponent)}".replace(".", decimal_point)
+
+
+def write_phyphox_export(path, sets, separator=",", decimal_point="."):
+    """phyphox's zipped CSV export, as its source writes it (phyphox-android, ``DataExport.java``,
+    ``CsvFormat``): per data set ``<name>.csv`` with the column names quoted, the rows as long as the
+    longest column (``NaN`` padding), and ``meta/device.csv``, ``meta/time.csv``.
+
+    ``sets`` maps each set's name to ``{column name: values}``.
+    """
+    import zipfile
+
+    with zipfile.ZipFile(path, "w") as archive:
+        for name, columns in sets.items():
+            header = separator.join(f'"{column}"' for column in columns)
+            length = max(len(values) for values in columns.values())
+            lines = [separator.join(phyphox_number(values[row] if row < len(values) else np.nan, decimal_point)
+                                    for values in columns.values()) for row in range(length)]
+            archive.writestr(f"{name}.csv", "\n".join([header, *lines]) + "\n")
+        archive.writestr("meta/device.csv", f'"property"{separator}"value"\n"deviceModel"{separator}"test"\n')
+        archive.writestr("meta/time.csv", f'"event"{separator}"experiment time"{separator}"system time"{separator}'
+                                          f'"system time text"\n"START"{separator}'
+                                          f'{phyphox_number(0.0, decimal_point)}{separator}1700000000{decimal_point}000'
+                                          f'{separator}"2023-11-14 22:13:20.000 UTC+00:00"\n')
+    return path
+
+
 #: A short synthetic tennis drop (254 cm, constant e 0.745, a 100 Hz sensor in m) as a scenarios file
 #: (``dropfit synth --scenarios``): the scenario ``tennis_short`` the report tests run through the stages.
 TENNIS_SHORT_SCENARIOS = """\

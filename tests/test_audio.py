@@ -25,7 +25,7 @@ from dropfit.errors import InputError
 from dropfit.physics import drag_parameter
 from dropfit.restitution import Z95
 from dropfit.stages import RUN_FILES
-from helpers import assert_one_line_error, dropfit, real_recording
+from helpers import assert_one_line_error, dropfit, real_recording, write_phyphox_export
 
 TABLE_TENNIS = {"ball_type": "table_tennis", "ball_radius_m": 0.02, "ball_mass_kg": 0.0027}
 G = 9.81  # refsim's default g
@@ -256,6 +256,23 @@ def test_a_csv_of_impact_times_and_a_phyphox_export(tmp_path, truth):
     times, se, kind = read_impact_table(phyphox)
     assert kind == "phyphox" and times == pytest.approx(touchdowns, abs=1e-6) and np.isnan(se).all()
     assert analyse_recording(phyphox, **TABLE_TENNIS).fit["restitution"]["n_impacts"] == 4
+
+
+def test_phyphox_zipped_collision_export(tmp_path, truth):
+    """phyphox's default export of the (In)elastic collision experiment, a zip (written as its source,
+    DataExport.java, writes it; semicolons and decimal commas): told from a height log by its content and
+    read as impact times, e from them as from the CSV."""
+    touchdowns = truth.impacts["t_touchdown_s"].to_numpy()[:6]
+    columns = {}
+    for n, t in enumerate(touchdowns):
+        columns[f"Bounce {n} (s)"], columns[f"Height {n} (m)"] = [t], [0.1]
+    export = write_phyphox_export(tmp_path / "Inelastic collision.zip",
+                                  {"Raw data": {"Time (s)": np.arange(0.0, 1.0, 0.1)}, "Energy": columns}, ";", ",")
+    times, se, kind = read_impact_table(export)
+    assert kind == "phyphox" and times == pytest.approx(touchdowns, abs=1e-8)
+    result = analyse_recording(export, **TABLE_TENNIS)
+    assert result.fit["restitution"]["n_impacts"] == 4
+    assert result.impacts["e"].iloc[1:-1].to_numpy() == pytest.approx(truth.impacts["e"].iloc[1:5], abs=0.01)
 
 
 def test_dropfit_run_on_a_sound_file_writes_every_file_and_the_report(tmp_path, truth):

@@ -19,7 +19,7 @@ from dropfit.errors import InputError, shown_path
 from dropfit.heightlog import trajectory_from_log
 from dropfit.importers import FORMATS, ImportOptions, read_track
 
-from helpers import bouncing_ball
+from helpers import bouncing_ball, write_phyphox_export
 
 #: The truth of most fixtures: a ball (centre 2 cm above the floor at contact) from 1 m, e = 0.5.
 DROP_M, E_TRUE, CENTRE_M = 1.0, 0.5, 0.02  # m, 1, m
@@ -186,6 +186,33 @@ def test_phyphox_export_and_motion_detector_format(tmp_path):
                                                         formats=(".4E", ".6E")))
     track = read_track(path, ImportOptions(format="phyphox", sensor_height_m=SENSOR_HEIGHT_M))
     np.testing.assert_allclose(track.y, height, atol=ROUNDING_M)
+
+
+@pytest.mark.parametrize("separator, decimal_point", [(",", "."), ("\t", "."), (";", ",")])
+def test_phyphox_zipped_export_reads_its_distance_set(tmp_path, separator, decimal_point):
+    """phyphox's default export, a zip of one CSV per data set (written as its source, DataExport.java, writes
+    it, in its three CSV variants): the set with a distance is found among the others and read."""
+    time, height = truth(duration_s=2.5)
+    amplitude_time = np.arange(0.0, 2.5, 0.05)
+    sets = {"Raw data": {"Time (s)": amplitude_time, "Amplitude (a.u.)": np.sin(amplitude_time)},
+            "Distance": {"Time (s)": time, "Distance (m)": SENSOR_HEIGHT_M - height}}
+    path = write_phyphox_export(tmp_path / "Sonar 2024-05-02.zip", sets, separator, decimal_point)
+    track = read_track(path, ImportOptions(sensor_height_m=SENSOR_HEIGHT_M))
+    np.testing.assert_allclose(track.y, height, atol=1e-9)
+    assert analyse_recording(path, sensor_height_m=SENSOR_HEIGHT_M).params["e1"].value == pytest.approx(E_TRUE,
+                                                                                                        abs=E_TOL)
+
+
+def test_phyphox_export_without_one_distance_set_is_refused(tmp_path):
+    """A phyphox zip with no set holding a length, or with two, is refused in one line naming the sets."""
+    time = np.arange(0.0, 1.0, 0.01)
+    none = write_phyphox_export(tmp_path / "light.zip", {"Illuminance": {"Time (s)": time, "Illuminance (lx)": time}})
+    with pytest.raises(InputError, match=r"light.zip: this phyphox export holds no set with a position or distance "
+                                         r"in m, cm or mm \(sets: Illuminance\)"):
+        read_track(none)
+    both = {"A": {"Time (s)": time, "Distance (m)": time}, "B": {"Time (s)": time, "Depth (cm)": time}}
+    with pytest.raises(InputError, match=r"two.zip: this phyphox export holds several sets with a length \(A, B\)"):
+        read_track(write_phyphox_export(tmp_path / "two.zip", both))
 
 
 # --- Tracker's exported data tables -----------------------------------------------------------------

@@ -7,20 +7,25 @@ A CSV of times names its unit in the column: ``impact_time_s`` or ``impact_time_
 phyphox's "(In)elastic collision" experiment exports the set "Energy" with the columns
 ``Bounce 0 (s)`` … ``Bounce 5 (s)`` (each the time of the loudest sample of a sound above the
 threshold), ``Height n (m)`` and ``Energy n``; an impact not heard is 0 or empty. phyphox writes CSV with
-a comma, a tab or a semicolon (then with decimal commas) between the columns; all three are read.
+a comma, a tab or a semicolon (then with decimal commas) between the columns; all three are read, as
+a CSV or as the zip phyphox exports by default (:func:`dropfit.importers.sensors.phyphox_sets`).
 """
 
 from __future__ import annotations
 
+import io
 import re
 
 import numpy as np
 import pandas as pd
 
 from ..errors import InputError, shown, shown_path
+from ..importers.sensors import phyphox_sets
 
 #: Suffixes a table of impact times may have.
 TABLE_SUFFIXES = (".csv", ".tsv", ".txt")
+#: The suffix of phyphox's zipped export.
+ZIP_SUFFIX = ".zip"
 #: Standard error given to times without one when too few of them to measure their scatter, s: the
 #: loudest sample of a click (what phyphox and most tools report) lags its onset by a varying fraction
 #: of a millisecond to a few (benchmarks/audio_onsets.py measures it).
@@ -35,24 +40,37 @@ _TIME_COLUMN = re.compile(r"(?:^|[,;\t\"\s])impact_time_m?s(?:[,;\t\"\s]|$)", re
 _PHYPHOX_IN_HEADER = re.compile(r"bounce\s+\d+\s*\(s\)", re.IGNORECASE)
 
 
+def _first_line(lines):
+    """The first of ``lines`` (an iterable of text lines) that is not empty or a comment, else ""."""
+    return next((line for line in lines if line.strip() and not line.lstrip().startswith("#")), "")
+
+
 def _header(path, limit=None):
     """The first line that is not empty or a comment (at most ``limit`` characters of it)."""
     try:
         with open(path, "r", encoding="utf-8-sig", errors="replace") as handle:
-            while True:
-                line = handle.readline(limit or -1)
-                if not line:
-                    return ""
-                if line.strip() and not line.lstrip().startswith("#"):
-                    return line
+            return _first_line(iter(lambda: handle.readline(limit or -1), ""))
     except OSError:
         return ""
+
+
+def _phyphox_collision_set(path):
+    """The CSV text of the "(In)elastic collision" set of a zipped phyphox export, or None."""
+    try:
+        with open(path, "rb") as handle:
+            sets = phyphox_sets(handle.read())
+    except OSError:
+        return None
+    texts = (raw.decode("utf-8-sig", "replace") for raw in (sets or {}).values())
+    return next((text for text in texts if _PHYPHOX_IN_HEADER.search(_first_line(text.splitlines()))), None)
 
 
 def is_impact_table(path):
     """True if ``path`` is a table of impact times (a CSV naming ``impact_time_s``/``_ms``, or a phyphox
     "(In)elastic collision" export), judged by its suffix and the start of its header line (a height
     log's header of a million columns is not read whole)."""
+    if str(path).lower().endswith(ZIP_SUFFIX):
+        return _phyphox_collision_set(path) is not None
     if not str(path).lower().endswith(TABLE_SUFFIXES):
         return False
     header = _header(path, HEADER_PEEK_CHARS)
@@ -73,11 +91,13 @@ def read_impact_table(path):
         For a table without times, with a time that is not a number, or with times not increasing.
     """
     name = shown_path(path)
-    header = _header(path)
+    zipped = _phyphox_collision_set(path) if str(path).lower().endswith(ZIP_SUFFIX) else None
+    source = path if zipped is None else io.StringIO(zipped)
+    header = _header(path) if zipped is None else _first_line(zipped.splitlines())
     separator = ";" if header.count(";") > max(header.count(","), header.count("\t")) else \
         "\t" if header.count("\t") > header.count(",") else ","
     try:
-        table = pd.read_csv(path, sep=separator, comment="#", decimal="," if separator == ";" else ".",
+        table = pd.read_csv(source, sep=separator, comment="#", decimal="," if separator == ";" else ".",
                             skipinitialspace=True)
     except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError, OSError) as error:
         raise InputError(f"{name}: cannot be read as a table of impact times ({type(error).__name__}); export it "

@@ -71,7 +71,11 @@ def read_track(path, options=None):
     if options.format == "tracker" and raw.lstrip()[:1] in (b"<", b"P") or \
             options.format in (None, "tracker") and _is_tracker_project(path, raw):
         return _finished(path, tracker.read_project(path, raw, options))
-    check_not_other_file(path, raw)
+    sets = sensors.phyphox_sets(raw) if options.format in (None, "phyphox") else None
+    if sets is not None:
+        raw, options = sensors.phyphox_position_set(path, sets), dataclasses.replace(options, format="phyphox")
+    else:
+        check_not_other_file(path, raw)
     lines = text_lines(path, raw)
     if options.format == "dropfit" or options.format is None and (
             max(map(len, lines[:50]), default=0) > MAX_LINE_CHARACTERS or _is_native(lines)):

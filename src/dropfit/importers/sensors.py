@@ -5,6 +5,12 @@ These are tables (:mod:`.table`) whose columns name their unit in brackets, ``Ti
 Capstone behind (``Time (s) Run #1``). A file of several runs is read one run at a time
 (``--track-id N``: run N).
 
+phyphox's CSV export (all but its "minimalistic" variant) is a zip: one ``<set>.csv`` per data set of
+the experiment, quoted headers, numbers as ``1.234567890E-1`` (with a decimal comma in the semicolon
+variant), ``NaN`` where a column is shorter, and ``meta/device.csv``, ``meta/time.csv`` beside them
+(its source, ``DataExport.java``). :func:`phyphox_sets` opens it; :func:`phyphox_position_set` picks
+the set that holds a length.
+
 A motion detector measures the distance *down* from the sensor to the ball. With the sensor's height
 (``--sensor-height-m``) the height is that height minus the distance. Without it the direction is
 found from the bounces (they point towards the floor), and the distance at which the ball comes to
@@ -14,13 +20,20 @@ rest, the longest plateau at the largest distances, is the zero of the heights.
 from __future__ import annotations
 
 import dataclasses
+import io
 import re
+import zipfile
 
 import numpy as np
 
 from ..errors import InputError, shown_path
 from .base import LENGTH_UNITS_M
 from .table import track_from_table
+
+#: The folder of phyphox's zipped export that holds its metadata, not data sets.
+PHYPHOX_META_FOLDER = "meta/"
+#: A column holding a length: its unit in brackets, as phyphox names columns (``Distance (m)``).
+_LENGTH_COLUMN = re.compile(r"\((?:m|cm|mm)\)", re.IGNORECASE)
 
 #: A plateau of the distance (the ball at rest on the floor) lies within this of the largest distance, m.
 REST_TOLERANCE_M = 0.005
@@ -116,3 +129,34 @@ def _rows_with_time(table, run):
     index = next(i for i, column in enumerate(table.columns()) if column.role == "time" and column.run == run)
     times = table.numbers(index)
     return dataclasses.replace(table, rows=[row for row, time in zip(table.rows, times) if np.isfinite(time)])
+
+
+def phyphox_sets(raw):
+    """The data sets of phyphox's zipped CSV export, ``{set name: bytes of its CSV}``; None when ``raw``
+    (a file's bytes) is not such an export (not a zip, or a zip without phyphox's ``meta/`` folder)."""
+    if not raw.startswith(b"PK\x03\x04"):
+        return None
+    try:
+        with zipfile.ZipFile(io.BytesIO(raw)) as archive:
+            names = archive.namelist()
+            if not any(name.startswith(PHYPHOX_META_FOLDER) for name in names):
+                return None
+            return {name[:-len(".csv")]: archive.read(name) for name in names
+                    if name.lower().endswith(".csv") and not name.startswith(PHYPHOX_META_FOLDER)}
+    except (zipfile.BadZipFile, zipfile.LargeZipFile, OSError, EOFError, ValueError):
+        return None
+
+
+def phyphox_position_set(path, sets):
+    """The one data set of a phyphox export (:func:`phyphox_sets`) with a length column (m, cm or mm),
+    as bytes of CSV; InputError when there is none or several."""
+    lengths = [name for name, raw in sets.items()
+               if _LENGTH_COLUMN.search(raw.split(b"\n", 1)[0].decode("utf-8", "replace"))]
+    if len(lengths) == 1:
+        return sets[lengths[0]]
+    listed = ", ".join(sorted(sets)) or "none"
+    if not lengths:
+        raise InputError(f"{shown_path(path)}: this phyphox export holds no set with a position or distance in m, cm "
+                         f"or mm (sets: {listed}); export the experiment that measures the ball's height")
+    raise InputError(f"{shown_path(path)}: this phyphox export holds several sets with a length ({', '.join(lengths)});"
+                     f" export only the one with the ball's height (phyphox: Export data, choose the set)")
