@@ -116,7 +116,7 @@ def test_the_command_writes_the_sheet_and_an_h264_clip_of_every_frame(analysed_c
 def test_a_refused_clip_gets_a_sheet_with_its_reason(drop, tmp_path):
     """30 frames/s: the fall is too briefly filmed. Through the workflow's stages: measure keeps the
     tracked table, analyse records the refusal, the overlay reads both."""
-    video = render_drop_clip(tmp_path / "slow.avi", drop, fps=30.0).attrs["video_path"]
+    video = render_drop_clip(tmp_path / "slow.avi", drop, fps=15.0).attrs["video_path"]
     out = tmp_path / "results"
     assert main(["measure", video, "--out", str(out / "trajectory.nc"), "--track", str(out / "track.csv"),
                  "--ball-radius-m", str(CLIP_BALL_RADIUS_M)]) == 0

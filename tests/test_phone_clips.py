@@ -9,12 +9,14 @@ inside its 95 % interval, rebound heights within ±5 mm, the scale within 0.5 %.
 
 import io
 import math
+import re
 
 import numpy as np
 import pandas as pd
 import pytest
 
 import dropfit
+from dropfit.errors import InputError
 from dropfit.video.targets import to_plane
 from dropfit.video.track import track_video, usable_rows
 from helpers import phone_clip
@@ -69,6 +71,10 @@ YELLOW_NEAR_FLOOR = ("tracked in colour, the 7.5 px yellow ball (its colour stor
     pytest.param("yellow_flicker_portrait_120", {"ruler_tick_m": 0.01}, 2,
                  marks=pytest.mark.xfail(strict=True, reason=YELLOW_NEAR_FLOOR)),
     ("tennis_aruco_tilted", {"marker_size_m": 0.08}, 3),
+    # 30 frames/s, scale from gravity (the board has none; the tape's cm ticks are not resolved at half size)
+    pytest.param("green_board_avi", {}, 4, marks=pytest.mark.slow),
+    pytest.param("yellow_green_tape", {}, 4, marks=pytest.mark.slow),
+    pytest.param("red_blur_portrait", {}, 6, marks=pytest.mark.slow),
 ])
 def test_phone_clip_numbers(tmp_path, preset, options, impacts_checked):
     """The clip gives e per impact within the bar and inside its interval, and the scale within 0.5 %."""
@@ -113,3 +119,20 @@ def test_phone_clip_ball_is_tracked_in_colour(tmp_path, preset, seed, min_fracti
     assert usable.sum() >= min_fraction * visible.sum()
     assert np.hypot(*offset) <= 2.0
     assert np.sqrt(np.mean(scatter ** 2)) <= 0.5
+
+
+@pytest.mark.slow
+def test_a_ruler_read_in_the_wrong_marks_is_refused_by_the_balls_size(tmp_path):
+    """The tape's cm ticks are not resolved at half size; told they are 1 cm apart, the marks found (every
+    10 cm) would give a scale 10 times too fine, and a capture rate inferred through it a false slow motion.
+    The ball's diameter contradicts it: refused, naming the spacing the marks really have."""
+    path, truth = phone_clip("yellow_green_tape", tmp_path, seed=3, downscale=0.5)
+    physics = truth["physics"]
+    with pytest.raises(InputError) as refused:
+        dropfit.analyse_recording(path, ball_radius_m=physics["radius_m"], ball_mass_kg=physics["mass_kg"],
+                                  ball_type=physics["ball_model"], ruler_tick_m=0.01)
+    message = str(refused.value)
+    factor = float(re.search(r"differ by a factor ([0-9.]+)", message).group(1))
+    spacing_m = float(re.search(r"by the ball's size they are ([0-9.]+) m apart", message).group(1))
+    assert factor == pytest.approx(10.0, rel=0.1) and spacing_m == pytest.approx(0.1, rel=0.1), message
+    assert "--ruler-tick-m" in message and "\n" not in message

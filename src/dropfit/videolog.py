@@ -34,7 +34,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from .video import limits as video_limits
-from .video.calibrate import SCALE_PRECEDENCE, choose_scale, infer_capture_rate, rectify_rows, ruler_scale
+from .video.calibrate import (SCALE_PRECEDENCE, choose_scale, diameter_conflict, infer_capture_rate, rectify_rows,
+                              ruler_scale)
 from .video.targets import aruco_plane, board_plane, local_scale_and_se, tilt_bias, to_plane, two_point_scale
 from .errors import InputError, shown_path
 from .heightlog import check_floor, flight_acceleration, make_trajectory, nominal_drag_of, scale_from_gravity
@@ -199,6 +200,7 @@ def trajectory_from_video(path, ball_radius_m=None, scale_m_per_px=None, capture
                                  ruler_tick_m, extra)
     if targets.points_px is not None:
         scales["points"] = two_point_scale(targets.points_px, targets.distance_m)
+    _check_against_diameter(path, scales, radius_px, extra)
     image_rows = rows
     if plane is not None:
         extra.pop("keystone_per_px", None)  # the target's map takes the tilt in full, or an affine one none of it
@@ -315,6 +317,34 @@ def _independent_scales(background, radius_px, ball_radius_m, scale_m_per_px, ru
     if ball_radius_m:
         scales["diameter"] = scale_from_diameter(radius_px, ball_radius_m)
     return scales
+
+
+#: What to check when a scale contradicts the ball's diameter, per source.
+_CONFLICT_ADVICE = {
+    "given": "check scale_m_per_px (m per px) and the ball radius (m)",
+    "points": "check the two points (px) and their distance (m), and the ball radius (m)",
+    "target": "check the marker's or board's size (m) and the ball radius (m)",
+}
+
+
+def _check_against_diameter(path, scales, radius_px, extra):
+    """InputError when the scale to be used (given, points, target, ruler) and the ball's diameter differ by
+    a factor (:func:`dropfit.video.calibrate.diameter_conflict`): one of them is wrong, and a capture rate
+    inferred through it would be too."""
+    median_radius_px = float(np.nanmedian(radius_px)) if np.isfinite(radius_px).any() else np.nan
+    conflict = diameter_conflict(scales, median_radius_px)
+    if conflict is None:
+        return
+    source, ratio = conflict
+    if source == "ruler":
+        tick_m = extra["ruler_tick_m"]
+        advice = (f"the ruler's marks are not {tick_m:g} m apart ({extra['ruler_note']}): by the ball's size they are "
+                  f"{tick_m / ratio:.2g} m apart; give --ruler-tick-m for the marks seen, or check the ball radius (m)")
+    else:
+        advice = _CONFLICT_ADVICE[source]
+    raise InputError(f"{shown_path(path)}: not analysable: the {source} scale ({1 / scales[source][0]:.4g} px/m) and "
+                     f"the ball's diameter ({1 / scales['diameter'][0]:.4g} px/m: radius {median_radius_px:.1f} px) "
+                     f"differ by a factor {max(ratio, 1 / ratio):.3g}; {advice}")
 
 
 def _rectified(rows_px, extra):

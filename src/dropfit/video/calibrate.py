@@ -480,6 +480,41 @@ def _ruler_in_columns(grey, first, last, strong, tick_m):
                     f"against the longer ticks (every {', '.join(str(r) for r in sorted(set(ratios)))})")
 
 
+#: How far a scale may differ from the ball's diameter, beyond the pixel by which a tracked radius can
+#: be off (the edge threshold, blur): a ruler counted in the wrong marks, a slipped unit or a wrong ball
+#: radius shows as a whole factor (2, 2.54, 5, 10), far outside this.
+DIAMETER_AGREEMENT = 0.15
+
+
+def diameter_conflict(scales, radius_px):
+    """The scale that the ball's diameter contradicts, if any: the one chosen by precedence among the
+    sources that do not come from gravity.
+
+    Parameters
+    ----------
+    scales : dict
+        Source name (one of :data:`SCALE_PRECEDENCE`) → (scale in m/px, standard error in m/px), with
+        ``diameter`` among them.
+    radius_px : float
+        The ball's median tracked radius, px.
+
+    Returns
+    -------
+    (str, float) or None
+        The contradicted source and its scale over the diameter's (dimensionless), or None when they
+        agree within :data:`DIAMETER_AGREEMENT` plus one pixel of radius, or there is nothing to compare.
+    """
+    if "diameter" not in scales or not np.isfinite(radius_px) or radius_px <= 0:
+        return None
+    chosen = next(name for name in SCALE_PRECEDENCE if name in scales and name != "gravity")
+    if chosen == "diameter":
+        return None
+    ratio = scales[chosen][0] / scales["diameter"][0]
+    if abs(np.log(ratio)) <= np.log1p(DIAMETER_AGREEMENT + 1.0 / radius_px):
+        return None
+    return chosen, ratio
+
+
 def choose_scale(scales):
     """The scale to use and every other one's disagreement with it.
 

@@ -28,11 +28,13 @@ frames adds the options that tell the tracker about the ball (``TRACKER_HELP``).
 from __future__ import annotations
 
 import dataclasses
+import math
 
 import numpy as np
 
 from ..analysis import estimate_noise
 from ..errors import InputError, shown_path
+from ..physics import STANDARD_GRAVITY_M_S2
 from .detect import QUALITY_DUPLICATE, QUALITY_LOST, QUALITY_OCCLUDED, QUALITY_PARTIAL
 from .track import CLEAN_QUALITIES
 
@@ -45,18 +47,19 @@ MIN_BALL_RADIUS_PX = 2.0
 #: most 3 % of the frames are clean, or fewer than 10 in all.
 MIN_CLEAN_FRACTION = 0.30
 #: Fewest frame intervals a flight around an impact must last (the drop: from its apex, the release,
-#: to touchdown; a bounce: from lift-off to touchdown). Sweep (blurred frames measured): a fall of 6
-#: frame intervals (15 frames/s) gave e₁ off by 3 × 10⁻³ (19 standard errors) in 1 of 2 clips, falls
-#: of 8–12 intervals (20–30 frames/s) were within 8 × 10⁻⁴ but up to 2.2 standard errors, and every
-#: fall of ≥ 15.6 intervals (40 frames/s and up) within 1 × 10⁻⁴ and 1.7 standard errors. It is the
-#: flight that must be sampled densely, not the clip: a high-speed close-up films only the last
-#: milliseconds of a long fall.
-MIN_FRAME_INTERVALS_PER_FLIGHT = 15
-#: Fewest clean frames in each of the two flights around an impact. Sweep (before blurred frames were
-#: measured): 10–15 clean frames in a fall of ≥ 23.5 frame intervals (60 frames/s, long exposures)
-#: gave e₁ within 1 × 10⁻⁴; the 1000 frames/s close-up sees 12 clean frames before its contact and
-#: gives e within 5 × 10⁻⁵ (tests/test_videolog.py).
-MIN_CLEAN_FRAMES_PER_FLIGHT = 10
+#: to touchdown; a bounce: from lift-off to touchdown). Sweep (blurred frames measured): a fall of 6.1
+#: frame intervals (15 frames/s) gave e₁ off by 3 × 10⁻³ (18 standard errors); falls of 7.8–12.5
+#: intervals (20 and 30 frames/s) were within 8 × 10⁻⁴ and 1.8 standard errors, and every fall of
+#: ≥ 15.6 intervals (40 frames/s and up) within 1.0 × 10⁻⁴. The independent phone-clip generator agrees
+#: at 30 frames/s (tests/test_phone_clips.py). It is the flight that must be sampled densely, not the
+#: clip: a high-speed close-up films only the last milliseconds of a long fall.
+MIN_FRAME_INTERVALS_PER_FLIGHT = 8
+#: Fewest clean frames in each of the two flights around an impact. Sweep: 7–8 clean frames before
+#: impact 1 (20 frames/s) gave e₁ within 1.3 × 10⁻⁴, 5 (15 frames/s) once 3 × 10⁻³ off; on the phone-clip
+#: generator at 30 frames/s a fall seen cleanly in 6 frames (the rest behind a hand or blurred) gave e₁
+#: 3 standard errors off, and 7 or more were right. The 1000 frames/s close-up sees 12 clean frames
+#: before its contact and gives e within 5 × 10⁻⁵ (tests/test_videolog.py).
+MIN_CLEAN_FRAMES_PER_FLIGHT = 7
 #: Fewest clean frames in a recording: the two flights around a first impact.
 MIN_CLEAN_FRAMES = 2 * MIN_CLEAN_FRAMES_PER_FLIGHT
 
@@ -136,8 +139,18 @@ def check_recording(table, source):
         raise InputError(f"{shown_path(source)}: not analysable: {'; '.join(violations)}{cause}")
 
 
+#: A video whose ball was measured in at least this fraction of its frames was tracked well: if its flights
+#: do not fall with g, the cause is elsewhere (too few frames per flight, the scale).
+WELL_TRACKED_FRACTION = 0.8
+
+
 def not_free_fall(source, acceleration_m_s2, trajectory):
     """The refusal of a video whose tracked flights do not fall with g: what the tracker measured.
+
+    When the ball was measured in most frames (:data:`WELL_TRACKED_FRACTION`) and the whole height
+    covered would be fallen in fewer than :data:`MIN_FRAME_INTERVALS_PER_FLIGHT` frame intervals, the
+    flights are too sparsely sampled to be told apart from their impacts, and the refusal says so (with
+    the frame rate that would do); else it points at the tracking.
 
     Parameters
     ----------
@@ -146,7 +159,7 @@ def not_free_fall(source, acceleration_m_s2, trajectory):
     acceleration_m_s2 : float
         The tracked flights' shared downward acceleration, m/s².
     trajectory : xarray.Dataset
-        The video's trajectory (``y`` in m, ``quality`` 0 for a measured frame).
+        The video's trajectory (``time`` in s, ``y`` in m, ``quality`` 0 for a measured frame).
 
     Returns
     -------
@@ -156,9 +169,19 @@ def not_free_fall(source, acceleration_m_s2, trajectory):
     measured = trajectory["quality"].values == 0
     heights = trajectory["y"].values[measured]
     span = float(np.ptp(heights)) if heights.size else 0.0
-    return (f"{shown_path(source)}: not analysable: the tracked ball falls with {acceleration_m_s2:.3g} m/s², not g: "
-            f"it was measured in {int(measured.sum())} of {measured.size} frames, over {span:.3g} m of height (the "
-            f"tracker lost the ball in its flights or followed something else, or the scale is wrong); "
+    said = (f"{shown_path(source)}: not analysable: the tracked ball falls with {acceleration_m_s2:.3g} m/s², not g: "
+            f"it was measured in {int(measured.sum())} of {measured.size} frames, over {span:.3g} m of height")
+    times = trajectory["time"].values
+    interval_s = float(np.median(np.diff(times))) if times.size > 1 else np.nan
+    fall_s = math.sqrt(2.0 * span / STANDARD_GRAVITY_M_S2)
+    well_tracked = measured.mean() >= WELL_TRACKED_FRACTION if measured.size else False
+    sparse = np.isfinite(interval_s) and interval_s > 0 and fall_s < MIN_FRAME_INTERVALS_PER_FLIGHT * interval_s
+    if well_tracked and sparse:
+        needed = math.ceil(MIN_FRAME_INTERVALS_PER_FLIGHT / fall_s) if fall_s > 0 else math.inf
+        return (f"{said}: a fall over that height lasts {fall_s / interval_s:.1f} frame intervals at "
+                f"{1.0 / interval_s:.3g} frames/s, fewer than the {MIN_FRAME_INTERVALS_PER_FLIGHT} a flight needs "
+                f"to be told from its impacts; film at {needed:g} frames/s or more (slow motion), or drop from higher")
+    return (f"{said} (the tracker lost the ball in its flights or followed something else, or the scale is wrong); "
             f"{TRACKER_HELP}")
 
 
