@@ -1,5 +1,5 @@
-"""Command line: ``dropfit <stage> …``, one subcommand per workflow stage, and ``dropfit run`` for all of
-them on one recording.
+"""Command line: ``dropfit <stage> …``, one subcommand per workflow stage, ``dropfit run`` for all of
+them on one recording, and ``dropfit batch`` for the recordings of a sample sheet (the workflow's jobs).
 
 The options (``--ball-radius-m``, ``--gravity-m-s2``, ``--drag`` …) are those of
 :data:`dropfit.settings.OPTIONS`; one not given takes the default of :class:`dropfit.settings.Settings`.

@@ -26,17 +26,29 @@ def _schema(name):
         return yaml.safe_load(handle)
 
 
-def _schema_problems(record, schema, where):
-    """One line per way ``record`` breaks ``schema``: ``<where>, column <name>: <what is wrong>``."""
+def _schema_problems(record, schema, where, part="column"):
+    """One line per way ``record`` breaks ``schema``: ``<where>, <part> <name>: <what is wrong>``."""
     problems = []
     for error in sorted(Draft202012Validator(schema).iter_errors(record), key=lambda error: list(error.path)):
         if error.validator == "required":
             missing = [name for name in error.validator_value if name not in error.instance]
-            problems += [f"{where}, column {name}: missing; every row needs it" for name in missing]
+            problems += [f"{where}, {part} {name}: missing" for name in missing]
         else:
             column = ".".join(map(str, error.path)) or "?"
-            problems.append(f"{where}, column {column}: {error.message}")
+            problems.append(f"{where}, {part} {column}: {error.message}")
     return problems
+
+
+def _typed(value, kind):
+    """A sample-sheet cell as the schema's type wants it (a number where it reads as one; else the text,
+    which the schema then refuses)."""
+    if kind in ("number", "integer"):
+        try:
+            number = float(value)
+        except ValueError:
+            return value
+        return int(number) if kind == "integer" and number.is_integer() else number
+    return value
 
 
 def sample_sheet_problems(path, schema):
@@ -48,28 +60,25 @@ def sample_sheet_problems(path, schema):
     if not lines:
         return [f"{path}: empty; the first line names the columns, separated by tabs"]
     header = lines[0][1].split("\t")
-    problems = []
     if len(header) == 1 and re.search(r"\S\s+\S", header[0]):
         return [f"{path}: line {lines[0][0]}: the column names are separated by spaces; separate them by tabs"]
+    types = {name: spec.get("type") for name, spec in schema["properties"].items()}
+    problems, seen = [], {}
     for number, line in lines[1:]:
         fields = line.split("\t")
-        if len(fields) != len(header):
-            spaces = any(re.search(r"\S {2,}\S|\S \S", field) and field.count(" ") > 1 for field in fields)
-            hint = ("spaces stand where a tab belongs; separate the columns by tabs" if spaces else
+        # a row may leave out its last, empty cells, unless it has runs of spaces where tabs belong
+        spaced = any(len(re.findall(r"\S\s+(?=\S)", field)) >= 2 for field in fields)
+        if len(fields) > len(header) or (len(fields) < len(header) and spaced):
+            hint = ("spaces stand where a tab belongs; separate the columns by tabs" if spaced else
                     "give one tab-separated value per column (nothing between two tabs for none)")
-            problems.append(f"{path}: line {number}: {len(fields)} fields where the header has {len(header)}; {hint}")
-    if problems:
-        return problems
-    sheet = read_sample_sheet(path)
-    seen = {}
-    for (number, _), (_, row) in zip(lines[1:], sheet.iterrows()):
-        record = {key: (value.item() if hasattr(value, "item") else value) for key, value in row.items()
-                  if not (isinstance(value, float) and math.isnan(value))}
-        where = f"{path}: line {number} ({row['sample_id']})"
-        problems += _schema_problems(record, schema, where)
-        seen.setdefault(row["sample_id"], []).append(number)
+            problems.append(f"{path}: line {number}: {len(fields)} values where the header names {len(header)} "
+                            f"columns; {hint}")
+            continue
+        record = {name: _typed(value.strip(), types.get(name)) for name, value in zip(header, fields) if value.strip()}
+        problems += _schema_problems(record, schema, f"{path}: line {number} ({record.get('sample_id', '?')})")
+        seen.setdefault(record.get("sample_id"), []).append(number)
     for sample_id, numbers in seen.items():
-        if len(numbers) > 1:
+        if sample_id is not None and len(numbers) > 1:
             problems.append(f"{path}: sample_id {sample_id} is on lines {', '.join(map(str, numbers))}; "
                             f"give each recording its own sample_id")
     return problems
@@ -82,13 +91,13 @@ def stop_on_problems(problems):
         sys.exit(1)
 
 
-stop_on_problems(_schema_problems(config, _schema("config"), "config"))
+stop_on_problems(_schema_problems(config, _schema("config"), "config", "key"))
 stop_on_problems(sample_sheet_problems(config["samples"], _schema("samples")))
 samples = read_sample_sheet(config["samples"])
 
 with open(config["scenarios"]) as handle:
     scenarios = yaml.safe_load(handle)
-stop_on_problems(_schema_problems(scenarios, _schema("scenarios"), config["scenarios"]))
+stop_on_problems(_schema_problems(scenarios, _schema("scenarios"), config["scenarios"], "key"))
 
 #: Every synthetic recording rule synth makes; a scenario with n drops makes n of them.
 synthetic_recordings = list(scenario_recordings(scenarios["scenarios"]))
