@@ -131,7 +131,8 @@ def test_dry_run_plans_every_sample_in_chunks(tmp_path):
             assert max(sizes) - min(sizes) <= 1 and max(sizes) <= most
     assert len(jobs["summary"]) == 1
     assert len(jobs["qc"]) == sheet["batch"].nunique()
-    assert not any(path.startswith("data/") for outputs in sum(jobs.values(), []) for path in outputs)
+    assert not any(path.startswith("data/") for rule_jobs in jobs.values()
+                   for outputs in rule_jobs for path in outputs)
 
 
 def test_sample_sheet_errors_are_one_line_each(tmp_path):
@@ -337,3 +338,27 @@ def test_dot_test_config_runs_good_and_bad_rows(tmp_path):
         assert fit["status"] == ("failed" if sample in TEST_FAILED else "ok"), (sample, fit)
     assert not any(path.exists() for path in leftovers)
     assert (test / "results" / "batch" / "qc_lot.html").is_file()
+
+
+def test_dropfit_batch_writes_failure_records_and_goes_on(tmp_path):
+    """``dropfit batch`` by hand on rows of the .test sheet, with the config as a YAML file: a missing file and
+    a truncated log each get failure records in every file and a ``failed:`` line with the reason, and the
+    command exits 0; a sample id that is not in the sheet is one line and exit status 1, before any row."""
+    root = copy_workflow(tmp_path) / ".test"
+    result = dropfit("batch", "--samples=config/samples.tsv", "--config=../config/config.yaml", "--",
+                     "missing_file", "truncated", cwd=root)
+    assert result.returncode == 0, result.stderr
+    lines = result.stdout.splitlines()
+    assert lines[0].startswith("missing_file: failed: data/no_such_log.csv: file not found")
+    assert lines[1].startswith("truncated: failed: data/tennis_lot_A_ball3_drop4_truncated.csv: no bounce")
+    for sample in ("missing_file", "truncated"):
+        for name in RECORDING_FILES:
+            assert (root / "results" / sample / name).is_file(), name
+        fit = json.loads((root / "results" / sample / "fit.json").read_text(encoding="utf-8"))
+        assert fit["status"] == "failed" and fit["error"] in result.stdout
+    result = dropfit("batch", "--samples=config/samples.tsv", "--results=elsewhere", "--", "tennis_itf", "no_such_row",
+                     cwd=root)
+    assert result.returncode == 1 and result.stdout == ""
+    assert result.stderr.strip().splitlines() == [
+        "dropfit: error: config/samples.tsv: no row with sample_id no_such_row; give sample ids of the sheet"]
+    assert not (root / "elsewhere").exists()

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import yaml
 
-from .errors import InputError, one_line, shown_path
+from .errors import InputError, one_line, shown, shown_path
 from .files import atomic_output, read_bytes, read_table, write_json, write_table, write_text
 from .fitrecord import analysis_summary, fit_summary
 from .heightlog import read_trajectory

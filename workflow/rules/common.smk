@@ -193,6 +193,12 @@ def chunk_inputs(members):
     return [path for path in paths if os.path.exists(path) or os.path.normpath(path) in MADE_RECORDINGS]
 
 
+def chunk_runtime(members):
+    """Minutes a chunk's job may take (a cluster's time limit): 10, and 6 s per log, 3 min per video."""
+    videos = sum(samples.loc[sample, "kind"] == "video" for sample in members)
+    return 10 + math.ceil(0.1 * (len(members) - videos) + 3 * videos)
+
+
 def chunk_rows(members):
     """The chunk's sample-sheet rows as JSON: a parameter, so that a changed row reruns its chunk."""
     return samples.loc[members].to_json(orient="records")

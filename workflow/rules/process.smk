@@ -20,6 +20,8 @@ for chunk, members in chunks.items():
             sample_ids=" ".join(members),
         log:
             f"results/logs/process/{chunk}.log",
+        resources:
+            runtime=chunk_runtime(members),
         conda:
             "../envs/dropfit.yaml"
         shell:
