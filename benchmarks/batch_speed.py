@@ -20,7 +20,7 @@ Output: a printed table, ``benchmarks/batch_speed.csv`` (columns case, recording
 wall_per_recording_s; wall_s the median) and ``benchmarks/batch_speed.png`` (wall time per recording
 against N, log x; the 16-call comparison as a line).
 
-Run (about 15 minutes on 2 free cores; the 1000-log batch dominates):
+Run (about 18 minutes on a shared 2-core machine; the 1000-log batch takes half):
 
     python benchmarks/batch_speed.py [--sizes 10 64 100 1000] [--videos 10] [--repeats 3]
 
