@@ -1,5 +1,5 @@
-"""Command line: ``dropfit <stage> …``, one subcommand per workflow stage, and ``dropfit run`` for all of
-them on one recording.
+"""Command line: ``dropfit <stage> …``, one subcommand per workflow stage, ``dropfit run`` for all of
+them on one recording, and ``dropfit batch`` for the recordings of a sample sheet (the workflow's jobs).
 
 The options (``--ball-radius-m``, ``--gravity-m-s2``, ``--drag`` …) are those of
 :data:`dropfit.settings.OPTIONS`; one not given takes the default of :class:`dropfit.settings.Settings`.
@@ -55,6 +55,17 @@ def _parser():
     run.add_argument("--out", required=True, help="directory to write the files into")
     run.add_argument("--sample-id")
     _add_options(run, "run")
+
+    batch = sub.add_parser("batch", help="the recordings of a sample sheet → the files dropfit run writes for each, in "
+                                         "RESULTS/<sample_id>/, in one process; a recording that fails gets failure "
+                                         "records and the batch goes on (the workflow's jobs)")
+    batch.add_argument("sample_ids", nargs="*", metavar="SAMPLE_ID",
+                       help="the rows to do, in this order (default: every row); put them after --")
+    batch.add_argument("--samples", required=True, help="the sample sheet (tab-separated, config/samples.tsv)")
+    batch.add_argument("--results", default="results", help="directory of the recordings' directories "
+                                                            "(default results)")
+    batch.add_argument("--config", help="the workflow's config (site, analysis, itf): a YAML file such as "
+                                        "config/config.yaml, or the mapping itself as JSON")
 
     measure = stage("measure", "height log (CSV) or video → trajectory (NetCDF, m); sound → impact times (NetCDF, s)")
     measure.add_argument("log", help="height log CSV, a video (.avi, .mp4, .mov, .mkv, .m4v), the sound of the "
@@ -154,6 +165,9 @@ def _run(args):
     if args.command == "synth-video":
         stages.synth_video(args.name, args.out_dir, args.seed)
         return
+    if args.command == "batch":
+        stages.run_batch(args.samples, args.results, _batch_config(args.config), args.sample_ids or None)
+        return
     ball, settings = _options(args)
     if args.command == "run":
         print(stages.run(args.recording, args.out, ball, settings, args.sample_id).summary())
@@ -180,6 +194,24 @@ def _run(args):
         stages.qc(args.fits, args.batch, args.html, args.figure, args.csv, args.ball_ids, settings)
 
 
+def _batch_config(value):
+    """The workflow's config of ``dropfit batch --config``: a JSON mapping or a YAML file (None: empty)."""
+    import json
+
+    import yaml
+
+    if value is None:
+        return {}
+    try:
+        config = json.loads(value) if value.lstrip().startswith("{") else yaml.safe_load(Path(value).read_text("utf-8"))
+    except (OSError, ValueError, yaml.YAMLError) as error:
+        raise InputError(f"{shown_path(value)}: --config is neither a readable YAML file nor a JSON mapping "
+                         f"({type(error).__name__}: {shown(error)}); give config/config.yaml") from None
+    if not isinstance(config, dict):
+        raise InputError(f"{shown_path(value)}: --config holds no mapping of keys; give config/config.yaml")
+    return config
+
+
 #: The outputs of each stage, by argument name.
 _OUTPUTS = {"measure": ["out", "track"], "overlay": ["out", "clip"], "sound-video": ["out", "summary"],
             "analyse": ["impacts", "flights", "summary"], "fit": ["out"],
@@ -188,7 +220,8 @@ _OUTPUTS = {"measure": ["out", "track"], "overlay": ["out", "clip"], "sound-vide
 #: tracking keeps its tracked table, which shows why.
 _KEPT_ON_FAILURE = {"measure": ["track"]}
 #: The input each stage's messages name: the recording, the trajectory, the analysis, the fit results.
-_INPUTS = {"synth": "scenarios", "synth-video": "name", "run": "recording", "measure": "log", "overlay": "video",
+_INPUTS = {"synth": "scenarios", "synth-video": "name", "run": "recording", "batch": "samples", "measure": "log",
+           "overlay": "video",
            "sound-video": "video",
            "analyse": "trajectory", "fit": "analysis", "report": "trajectory", "summary": "fits", "qc": "fits"}
 

@@ -1074,8 +1074,8 @@ def sample_sheet_extras(sheet):
     Parameters
     ----------
     sheet : pandas.DataFrame
-        The sample sheet as text (every cell a string, empty for none), with a ``sample_id`` column of
-        unique ids.
+        The sample sheet (:func:`dropfit.stages.read_sample_sheet`: numbers or text, missing cells NaN),
+        with a ``sample_id`` column of unique ids.
 
     Returns
     -------
@@ -1091,7 +1091,7 @@ def sample_sheet_extras(sheet):
     for column in sheet.columns:
         if column in used:
             continue
-        text = sheet[column].str.strip().to_numpy()
+        text = sheet[column].astype("string").fillna("").str.strip().to_numpy(dtype=object)
         given = text != ""
         numbers = pd.to_numeric(pd.Series(text), errors="coerce").to_numpy(dtype=float)
         name = f"{column} (sample sheet)" if column in BATCH_COLUMNS else column

@@ -181,10 +181,11 @@ def run_files(recording, settings=None):
     return RUN_FILES + (VIDEO_RUN_FILES if tracked else ())
 
 
-def run(recording, out_dir, ball=None, settings=None, sample_id=None):
+def run(recording, out_dir, ball=None, settings=None, sample_id=None, tracked=None):
     """One recording → every file the workflow writes for it (:func:`run_files`) in ``out_dir``, whole or
     not at all: they are made in a temporary directory inside ``out_dir`` and moved in only when all
-    are made.
+    are made. A video's ``tracked`` table (:func:`dropfit.pipeline.track_recording`), when given, is not
+    tracked again.
 
     Returns
     -------
@@ -193,7 +194,8 @@ def run(recording, out_dir, ball=None, settings=None, sample_id=None):
     """
     video = isinstance(recording, (str, os.PathLike)) and is_video(recording) and (settings is None
                                                                                    or settings.kind != "audio")
-    tracked = track_recording(recording, settings, ball) if video else None
+    if video and tracked is None:
+        tracked = track_recording(recording, settings, ball)
     result = process_recording(recording, ball, settings, sample_id=sample_id, tracked=tracked)
     say_how_read(result.trajectory)
     out = Path(out_dir)
@@ -285,26 +287,6 @@ def summary(fit_paths, csv_path, html_path, samples_path=None, figure_path=None)
     write_text(html_path, batch_report_html(table, fits, [report_href(path, html_path) for path in fit_paths], png))
 
 
-def read_sample_sheet(path):
-    """The sample sheet (tab-separated, a ``sample_id`` column of unique ids) as text, empty cells ""."""
-    import pandas as pd
-
-    try:
-        sheet = pd.read_csv(path, sep="\t", dtype=str, keep_default_na=False)
-    except (OSError, ValueError, UnicodeDecodeError) as error:
-        raise InputError(f"{shown_path(path)}: cannot read the sample sheet ({type(error).__name__}: "
-                         f"{one_line(str(error))}); give a tab-separated file with a sample_id column") from None
-    if "sample_id" not in sheet.columns:
-        columns = ", ".join(map(shown, sheet.columns[:8]))
-        raise InputError(f"{shown_path(path)}: no sample_id column (columns: {columns}); separate the columns with "
-                         f"tabs and name the first sample_id")
-    duplicated = sheet["sample_id"][sheet["sample_id"].duplicated()]
-    if len(duplicated):
-        raise InputError(f"{shown_path(path)}: sample_id {shown(duplicated.iloc[0])} appears more than once; "
-                         f"give every recording its own id")
-    return sheet
-
-
 def qc(fit_paths, batch, html_path, figure_path, csv_path, ball_ids=None, settings=None):
     """Batch QC report: per-ball table (CSV), control chart (PNG) and HTML page over one batch's recordings.
 
@@ -335,3 +317,176 @@ def qc(fit_paths, batch, html_path, figure_path, csv_path, ball_ids=None, settin
         tmp.write_bytes(png)
     write_text(html_path, qc_report_html(batch, recordings, balls, statistics, failed_recordings(recordings),
                                          window, png, fits, [report_href(path, html_path) for path in fit_paths]))
+
+
+# --- a batch of sample-sheet recordings in one process (the workflow's jobs) ---------------------
+
+#: The dtype of the sample sheet's text columns (the rest are read as numbers where they are numbers).
+SHEET_TEXT_COLUMNS = ("sample_id", "kind", "path", "ball_type", "batch", "ball_id", "format", "columns",
+                      "scale_points_px", "board_inner_corners", "ball_colour", "roi_px", "ball_at_px")
+
+
+def sample_sheet_lines(path):
+    """(line number from 1, line) of a sample sheet's header and rows: blank lines and lines starting with
+    ``#`` (comments) left out.
+
+    Raises
+    ------
+    InputError
+        For a file that cannot be read as text.
+    """
+    try:
+        text = Path(path).read_text(encoding="utf-8-sig")
+    except (OSError, UnicodeDecodeError) as error:
+        raise InputError(f"{shown_path(path)}: cannot read the sample sheet ({type(error).__name__}: "
+                         f"{shown(error)}); give a tab-separated text file") from None
+    return [(number, line) for number, line in enumerate(text.splitlines(), 1)
+            if line.strip() and not line.lstrip().startswith("#")]
+
+
+def read_sample_sheet(path):
+    """The sample sheet (tab-separated; :func:`sample_sheet_lines`) as a DataFrame indexed by ``sample_id``,
+    the optional ``ball_id`` and ``batch`` filled in: a recording without a ball is a ball of its own, one
+    without a batch belongs to the batch ``unbatched``. A ``#`` within a line is text (a colour
+    ``#rrggbb``), not a comment.
+
+    Raises
+    ------
+    InputError
+        For a sheet that cannot be read or has no ``sample_id`` column.
+    """
+    import io
+
+    import pandas as pd
+
+    lines = sample_sheet_lines(path)
+    try:
+        sheet = pd.read_csv(io.StringIO("\n".join(line for _, line in lines)), sep="\t", keep_default_na=False,
+                            na_values=[""], dtype={name: str for name in SHEET_TEXT_COLUMNS})
+    except ValueError as error:
+        raise InputError(f"{shown_path(path)}: cannot be read as a tab-separated sample sheet "
+                         f"({type(error).__name__}: {shown(error)}); give one value per column, separated by "
+                         f"tabs") from None
+    if "sample_id" not in sheet.columns:
+        columns = ", ".join(map(shown, sheet.columns[:8]))
+        raise InputError(f"{shown_path(path)}: no sample_id column (columns: {columns}); separate the columns with "
+                         f"tabs and name the first sample_id")
+    duplicated = sheet["sample_id"][sheet["sample_id"].duplicated()]
+    if len(duplicated):
+        raise InputError(f"{shown_path(path)}: sample_id {shown(duplicated.iloc[0])} appears more than once; "
+                         f"give every recording its own id")
+    sheet = sheet.set_index("sample_id", drop=False)
+    for column, default in (("ball_id", sheet["sample_id"]), ("batch", "unbatched")):
+        sheet[column] = (sheet[column] if column in sheet.columns else pd.Series(index=sheet.index, dtype=str)
+                         ).fillna(default)
+    return sheet
+
+
+def recording_files(kind):
+    """The names of the files the workflow writes into ``results/<sample_id>/`` for a recording of
+    sample-sheet ``kind`` (``height_log``, ``video`` or ``audio``): those of ``dropfit run``, and for a
+    video (tracked, not heard) its tracked table and contact sheet too."""
+    return RUN_FILES + (VIDEO_RUN_FILES if kind == "video" else ())
+
+
+def run_batch(sheet_path, results_dir, config=None, sample_ids=None, say=print):
+    """Every recording of a sample sheet (or those of ``sample_ids``) → the files of
+    :func:`recording_files` in ``results_dir/<sample_id>/``, each recording as ``dropfit run`` does it.
+
+    A recording that fails gets failure records in all its files (as ``--record-failure`` writes them;
+    a video refused after tracking keeps its tracked table and gets its contact sheet) and the batch
+    goes on. ``say`` receives one line per recording: ``<sample_id>: <headline>`` or
+    ``<sample_id>: failed: <reason>``.
+
+    Parameters
+    ----------
+    sheet_path : str or pathlib.Path
+        The sample sheet (:func:`read_sample_sheet`); its paths are relative to the working directory.
+    results_dir : str or pathlib.Path
+        Where the recordings' directories go.
+    config : dict, optional
+        The workflow's config (site, ``analysis``, ``itf``; :func:`dropfit.settings.workflow_values`).
+    sample_ids : list of str, optional
+        The recordings to do, in this order; default every row of the sheet.
+
+    Returns
+    -------
+    dict
+        sample_id → the reason it failed (one line), for the recordings that failed.
+
+    Raises
+    ------
+    InputError
+        For a sheet that cannot be read or a sample id that is not in it (before any recording is done).
+    """
+    sheet = read_sample_sheet(sheet_path)
+    sample_ids = list(sheet.index) if sample_ids is None else list(sample_ids)
+    unknown = [sample for sample in sample_ids if sample not in sheet.index]
+    if unknown:
+        raise InputError(f"{shown_path(sheet_path)}: no row with sample_id {', '.join(map(shown, unknown[:5]))}; "
+                         f"give sample ids of the sheet")
+    if not sheet.index.is_unique:
+        duplicated = sorted(set(sheet.index[sheet.index.duplicated()]))
+        raise InputError(f"{shown_path(sheet_path)}: sample_id {', '.join(map(shown, duplicated[:5]))} is given "
+                         f"more than once; give each recording its own sample_id")
+    failed = {}
+    for sample_id in sample_ids:
+        row = sheet.loc[sample_id]
+        out = Path(results_dir) / sample_id
+        message, tracked = _run_row(row, out, config or {}, say)
+        if message is None:
+            continue
+        failed[sample_id] = message
+        _record_failure(row, out, message, tracked)
+        say(f"{sample_id}: failed: {message}")
+    return failed
+
+
+def _run_row(row, out, config, say):
+    """Run one sample-sheet row into ``out``: (None, None) when done, else (reason, the video's tracked
+    table if it was tracked before the failure)."""
+    import traceback
+
+    from .settings import OptionError, settings_from_config
+
+    path, tracked = row["path"], None
+    try:
+        try:
+            ball, settings = settings_from_config(config, row)
+        except OptionError as error:
+            raise InputError(f"{shown_path(path)}: {error.named(lambda name: name)} (sample sheet column or "
+                             f"config key)") from None
+        if row["kind"] == "video":
+            tracked = track_recording(path, settings, ball)
+        say(run(path, out, ball, settings, row["sample_id"], tracked).summary())
+        return None, None
+    except InputError as error:
+        return one_line(str(error)), tracked
+    except Exception as error:  # noqa: BLE001 — a bug: the traceback to the log, the batch goes on
+        traceback.print_exc()
+        return one_line(f"{shown_path(path)}: internal error in dropfit ({type(error).__name__}: {shown(error)}); "
+                        f"please report it with this file"), tracked
+
+
+def _record_failure(row, out, message, tracked):
+    """Failure records in every file of a failed recording; a video tracked before it was refused keeps
+    its tracked table, and its contact sheet shows what was tracked with the reason."""
+    from .files import write_failure
+
+    names = recording_files(row["kind"])
+    for name in names:
+        if name not in VIDEO_RUN_FILES + ("report.html",):
+            write_failure(out / name, message)
+    figure = None
+    if "track.csv" in names:
+        if tracked is not None:
+            write_table(out / "track.csv", tracked.table)
+            try:
+                overlay(row["path"], out / "contact_sheet.png", results_dir=out)
+                figure = (out / "contact_sheet.png").read_bytes()
+            except InputError:
+                write_failure(out / "contact_sheet.png", message)
+        else:
+            write_failure(out / "track.csv", message)
+            write_failure(out / "contact_sheet.png", message)
+    write_failure(out / "report.html", message, figure)

@@ -6,15 +6,19 @@ rule qc:
     input:
         fits=batch_fits,
     output:
-        html="results/batch/qc_{batch}.html",
-        figure="results/batch/qc_{batch}.png",
+        html=report("results/batch/qc_{batch}.html", caption="../report/qc.rst", category="Batch",
+                    labels={"batch": "{batch}", "figure": "QC report"}),
+        figure=report("results/batch/qc_{batch}.png", caption="../report/qc_chart.rst", category="Batch",
+                      labels={"batch": "{batch}", "figure": "control chart"}),
         balls="results/batch/qc_{batch}_balls.csv",
     params:
         ball_ids=batch_ball_ids,
         options=qc_args,
     log:
         "results/logs/qc/{batch}.log",
+    conda:
+        "../envs/dropfit.yaml"
     shell:
-        "dropfit qc {input.fits} --ball-ids {params.ball_ids} --batch {wildcards.batch}"
-        " --html {output.html} --figure {output.figure} --csv {output.balls}"
+        "dropfit qc {input.fits} --ball-ids {params.ball_ids} --batch={wildcards.batch}"
+        " --html={output.html} --figure={output.figure} --csv={output.balls}"
         " {params.options} > {log} 2>&1"

@@ -1,69 +1,20 @@
-# Per-sample HTML report with figure (for a video with the contact sheet of what was tracked, which the
-# overlay job draws), and the batch summary over all samples.
-
-
-rule overlay:
-    wildcard_constraints:
-        sample=_alternatives(video_samples),
-    input:
-        video=measure_input,
-        track="results/{sample}/track.csv",
-        trajectory="results/{sample}/trajectory.nc",
-        flights="results/{sample}/flights.csv",
-        impacts="results/{sample}/impacts.csv",
-        analysis="results/{sample}/analysis.json",
-    output:
-        sheet=report(
-            "results/{sample}/contact_sheet.png",
-            category="What was tracked",
-            labels={"sample": "{sample}", "figure": "contact sheet"},
-        ),
-    params:
-        recording=recording_path,
-        results=output_directory,
-    log:
-        "results/logs/overlay/{sample}.log",
-    shell:
-        "dropfit overlay {params.recording:q} --results {params.results} --out {output.sheet}"
-        " --record-failure > {log} 2>&1"
-
-
-rule report:
-    input:
-        trajectory="results/{sample}/trajectory.nc",
-        flights="results/{sample}/flights.csv",
-        impacts="results/{sample}/impacts.csv",
-        analysis="results/{sample}/analysis.json",
-        fit="results/{sample}/fit.json",
-        contact_sheet=contact_sheet,
-    output:
-        html=report(
-            "results/{sample}/report.html",
-            category="Recordings",
-            labels={"sample": "{sample}", "figure": "report"},
-        ),
-        figure=report(
-            "results/{sample}/report.png",
-            category="Recordings",
-            labels={"sample": "{sample}", "figure": "figure"},
-        ),
-    params:
-        contact_sheet=contact_sheet_option,
-    log:
-        "results/logs/report/{sample}.log",
-    shell:
-        "dropfit report --trajectory {input.trajectory} --flights {input.flights}"
-        " --impacts {input.impacts} --analysis {input.analysis} --fit {input.fit} {params.contact_sheet}"
-        " --html {output.html} --figure {output.figure} --record-failure > {log} 2>&1"
+# The batch summary over all samples: one row per recording (linked to its report), failed ones with their
+# reason, the sample sheet's free columns carried, and e charted against each numeric one.
 
 
 rule summary:
     input:
         fits=all_fits,
+        reports=all_reports,
+        samples=config["samples"],
     output:
-        csv="results/batch/summary.csv",
-        html="results/batch/summary.html",
+        csv=report("results/batch/summary.csv", caption="../report/summary.rst", category="Batch"),
+        html=report("results/batch/summary.html", caption="../report/summary.rst", category="Batch"),
+        figure=report("results/batch/summary_extras.png", caption="../report/summary.rst", category="Batch"),
     log:
         "results/logs/summary/batch.log",
+    conda:
+        "../envs/dropfit.yaml"
     shell:
-        "dropfit summary {input.fits} --csv {output.csv} --html {output.html} > {log} 2>&1"
+        "dropfit summary {input.fits} --samples={input.samples:q} --csv={output.csv} --html={output.html}"
+        " --figure={output.figure} > {log} 2>&1"

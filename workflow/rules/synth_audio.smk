@@ -9,5 +9,7 @@ rule synth_audio:
         truth=f"{AUDIO_DIR}/table_tennis_40cm.truth.json",
     log:
         "results/logs/synth_audio/table_tennis_40cm.log",
+    conda:
+        "../envs/dropfit.yaml"
     shell:
-        "python -m refsim.sound --out {output.sound} --truth {output.truth} > {log} 2>&1"
+        "python -m refsim.sound --out={output.sound} --truth={output.truth} > {log} 2>&1"

@@ -11,5 +11,7 @@ rule synth_video:
         out_dir=output_directory,
     log:
         "results/logs/synth_video/{clip}.log",
+    conda:
+        "../envs/dropfit.yaml"
     shell:
-        "dropfit synth-video --name {wildcards.clip} --out-dir {params.out_dir} > {log} 2>&1"
+        "dropfit synth-video --name={wildcards.clip} --out-dir={params.out_dir} > {log} 2>&1"
