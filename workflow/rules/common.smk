@@ -52,8 +52,9 @@ AUDIO_DIR = "results/audio"
 
 
 def _alternatives(names):
-    """Regex matching exactly one of ``names`` (for wildcard constraints)."""
-    return "|".join(re.escape(str(name)) for name in names)
+    """Regex matching exactly one of ``names`` (for wildcard constraints); none, when there are none (an
+    empty alternation would match anything: a sheet without videos made measure and measure_video ambiguous)."""
+    return "|".join(re.escape(str(name)) for name in names) or "(?!)"
 
 
 from dropfit.videolog import is_video
