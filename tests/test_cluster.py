@@ -1,0 +1,118 @@
+"""The workflow through a real SLURM cluster (slow): the one-node cluster of ``.ci/start-slurm`` runs the
+jobs of ``snakemake --profile workflow/profiles/cluster`` on the small batch of ``.test/cluster/``, and
+the fits equal those of a local run of the same recordings. Without SLURM the test fails and says why."""
+
+import json
+import os
+import re
+import shutil
+import signal
+import subprocess
+from importlib.util import find_spec
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+REPO = Path(__file__).resolve().parents[1]
+#: Time limit of one workflow run (about 1–2 min through the cluster with two cores).
+RUN_TIMEOUT_S = 600  # s
+#: Time limit of one SLURM query.
+QUERY_TIMEOUT_S = 30  # s
+CONFIG = ".test/cluster/config.yaml"
+#: What snakemake prints for each job it hands to SLURM.
+SUBMITTED = re.compile(r"^Job \d+ has been submitted with SLURM jobid (\d+) \(log: (.+)\)\.$", re.MULTILINE)
+
+
+def slurm_problem():
+    """Why this machine cannot run the workflow through SLURM (str), or None when it can."""
+    if find_spec("snakemake_executor_plugin_slurm") is None:
+        return "snakemake-executor-plugin-slurm is not installed; pip install -e '.[cluster]'"
+    if shutil.which("sinfo") is None or shutil.which("sbatch") is None:
+        return "SLURM's commands (sinfo, sbatch) are not installed; start the cluster with .ci/start-slurm"
+    try:
+        states = subprocess.run(["sinfo", "-h", "-o", "%t"], capture_output=True, text=True, timeout=QUERY_TIMEOUT_S)
+    except subprocess.TimeoutExpired:
+        return f"sinfo did not answer in {QUERY_TIMEOUT_S} s; start the cluster with .ci/start-slurm"
+    if states.returncode != 0:
+        return f"sinfo failed ({states.stderr.strip()}); start the cluster with .ci/start-slurm"
+    if not {"idle", "mix", "alloc"} & set(states.stdout.split()):
+        return f"no SLURM node can take jobs (sinfo: {states.stdout.split()}); start the cluster with .ci/start-slurm"
+    return None
+
+
+def workflow_copy(destination):
+    """The Snakefile, workflow/, config/, data/ and .test/cluster/ copied to a new ``destination``; its path."""
+    destination.mkdir()
+    shutil.copy2(REPO / "Snakefile", destination / "Snakefile")
+    for name in ("workflow", "config", "data", ".test/cluster"):
+        shutil.copytree(REPO / name, destination / name, ignore=shutil.ignore_patterns("__pycache__"))
+    # a checkout gives the committed logs and scenarios.yaml arbitrary mtimes, and a synth job would
+    # remake a log that looks older (same bytes): not what this test is about
+    scenarios = (destination / "data" / "synthetic" / "scenarios.yaml").stat().st_mtime
+    for path in (destination / "data" / "synthetic").glob("*.csv"):
+        os.utime(path, (scenarios + 1, scenarios + 1))
+    return destination
+
+
+def run_snakemake(roots_and_profiles):
+    """Run ``snakemake --profile P … --configfile .test/cluster/config.yaml`` in each root at once, with its
+    profiles; return each run's (exit status, output)."""
+    runs = []
+    try:
+        for root, profiles in roots_and_profiles:
+            arguments = [argument for profile in profiles for argument in ("--profile", profile)]
+            with open(root / "snakemake.out", "w", encoding="utf-8") as out:
+                runs.append(subprocess.Popen([shutil.which("snakemake"), *arguments, "--configfile", CONFIG],
+                                             cwd=root, stdout=out, stderr=subprocess.STDOUT))
+        statuses = [run.wait(timeout=RUN_TIMEOUT_S) for run in runs]
+    finally:
+        for run in runs:  # on a timeout: an interrupted snakemake cancels its SLURM jobs (scancel)
+            if run.poll() is None:
+                run.send_signal(signal.SIGINT)
+                try:
+                    run.wait(timeout=QUERY_TIMEOUT_S)
+                except subprocess.TimeoutExpired:
+                    run.kill()
+    return [(status, (root / "snakemake.out").read_text(encoding="utf-8"))
+            for status, (root, _) in zip(statuses, roots_and_profiles)]
+
+
+def e_and_se(root, sample):
+    """(e, se) of the constant restitution law and of the first impact in the sample's fit.json."""
+    fit = json.loads((root / "results" / sample / "fit.json").read_text(encoding="utf-8"))
+    restitution = fit["restitution"]
+    return [(restitution[key]["value"], restitution[key]["se"]) for key in ("e", "e1")]
+
+
+@pytest.mark.slow
+def test_workflow_through_slurm_matches_a_local_run(tmp_path):
+    """Every job of the workflow but the local ones ran as a SLURM job (SLURM reports each COMPLETED in the
+    run's directory, each left its log); e and its standard error equal those of a local run."""
+    problem = slurm_problem()
+    if problem:
+        pytest.fail(f"SLURM is not available: {problem}")
+    local_root, cluster_root = (workflow_copy(tmp_path / name) for name in ("local", "cluster"))
+    # both at once: the cluster run mostly waits for SLURM
+    (status, output), (local_status, local_output) = run_snakemake([
+        (cluster_root, ["workflow/profiles/cluster", ".test/cluster/profile"]),
+        (local_root, ["workflow/profiles/default"])])
+    assert status == 0, output[-3000:]
+    assert local_status == 0, local_output[-3000:]
+
+    submitted = dict(SUBMITTED.findall(output))
+    planned = dict(re.findall(r"^(\w+)\s+(\d+)$", output.split("Job stats:")[1].split("Select jobs")[0],
+                              flags=re.MULTILINE))
+    local_jobs = len(re.findall(r"^localrule \w+:$", output, flags=re.MULTILINE))
+    assert len(submitted) == int(planned["total"]) - local_jobs > 0, output[-3000:]
+    states = subprocess.run(["squeue", "--states=all", "--noheader", "--format=%i|%T|%Z",
+                             "--jobs=" + ",".join(submitted)], capture_output=True, text=True,
+                            timeout=QUERY_TIMEOUT_S)
+    assert states.returncode == 0, states.stderr
+    reported = {job: (state, workdir) for job, state, workdir in (line.split("|") for line in states.stdout.split())}
+    assert reported == {job: ("COMPLETED", str(cluster_root.resolve())) for job in submitted}
+    assert all(Path(log).stat().st_size > 0 for log in submitted.values())
+
+    samples = pd.read_csv(REPO / ".test" / "cluster" / "samples.tsv", sep="\t")["sample_id"]
+    for sample in samples:
+        assert e_and_se(cluster_root, sample) == e_and_se(local_root, sample)
