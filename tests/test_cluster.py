@@ -15,7 +15,7 @@ import pandas as pd
 import pytest
 
 REPO = Path(__file__).resolve().parents[1]
-#: Time limit of one workflow run (about 1–2 min through the cluster with two cores).
+#: Time limit of one workflow run (about 3 min through the cluster on a busy 2-core machine).
 RUN_TIMEOUT_S = 600  # s
 #: Time limit of one SLURM query.
 QUERY_TIMEOUT_S = 30  # s
