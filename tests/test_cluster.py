@@ -91,6 +91,15 @@ def outputs(text):
     return files
 
 
+def minutes(limit):
+    """Minutes of a SLURM time limit written ``[days-][hours:]minutes:seconds``."""
+    days, _, clock = limit.rpartition("-")
+    seconds = 0
+    for part in clock.split(":"):
+        seconds = 60 * seconds + int(part)
+    return (int(days or 0) * 86400 + seconds) // 60
+
+
 def e_and_se(root, sample):
     """(e, se) of the constant restitution law and of the first impact in the sample's fit.json."""
     fit = json.loads((root / "results" / sample / "fit.json").read_text(encoding="utf-8"))
@@ -101,7 +110,8 @@ def e_and_se(root, sample):
 @pytest.mark.slow
 def test_workflow_through_slurm_matches_a_local_run(tmp_path):
     """Every file of the run was made in a SLURM job (each job COMPLETED in SLURM's own words, in the run's
-    directory; its log names the files it made); e and its standard error equal those of a local run."""
+    directory, with the memory and time limit the workflow asked for; its log names the files it made); e
+    and its standard error equal those of a local run."""
     problem = slurm_problem()
     if problem:
         pytest.fail(f"SLURM is not available: {problem}")
@@ -115,14 +125,20 @@ def test_workflow_through_slurm_matches_a_local_run(tmp_path):
 
     submitted = dict(SUBMITTED.findall(output))
     assert submitted, output[-3000:]
-    states = subprocess.run(["squeue", "--states=all", "--noheader", "--format=%i|%T|%Z",
+    states = subprocess.run(["squeue", "--states=all", "--noheader", "--format=%i|%T|%Z|%m|%l",
                              "--jobs=" + ",".join(submitted)], capture_output=True, text=True,
                             timeout=QUERY_TIMEOUT_S)
     assert states.returncode == 0, states.stderr
-    reported = {job: (state, workdir) for job, state, workdir in (line.split("|") for line in states.stdout.split())}
-    assert reported == {job: ("COMPLETED", str(cluster_root.resolve())) for job in submitted}
+    reported = {job: (state, workdir, memory, minutes(limit))
+                for job, state, workdir, memory, limit in (line.split("|") for line in states.stdout.split())}
+    # each job COMPLETED in the run's directory, with the memory and time the workflow asked for
+    logs = {job: Path(log).read_text(encoding="utf-8") for job, log in submitted.items()}
+    asked = {job: dict(re.findall(r"\b(mem_mb|runtime)=(\d+)", log.split("resources: ")[1].splitlines()[0]))
+             for job, log in logs.items()}
+    assert reported == {job: ("COMPLETED", str(cluster_root.resolve()), f"{asked[job]['mem_mb']}M",
+                              int(asked[job]["runtime"])) for job in submitted}
     # every file the run made outside local rules was made in a SLURM job (whatever the rules and groups)
-    made_in_slurm = set().union(*(outputs(Path(log).read_text(encoding="utf-8")) for log in submitted.values()))
+    made_in_slurm = set().union(*(outputs(log) for log in logs.values()))
     assert outputs(output) == made_in_slurm
     samples = pd.read_csv(REPO / ".test" / "cluster" / "samples.tsv", sep="\t")["sample_id"]
     assert {f"results/{sample}/fit.json" for sample in samples} <= made_in_slurm
