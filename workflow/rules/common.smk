@@ -118,8 +118,9 @@ MADE_RECORDINGS = ({f"{SYNTH_DIR}/{name}.csv" for name in synthetic_recordings +
 
 
 def _alternatives(names):
-    """Regex matching exactly one of ``names`` (for wildcard constraints)."""
-    return "|".join(re.escape(str(name)) for name in names)
+    """Regex matching exactly one of ``names`` (for wildcard constraints); nothing when there are none (an
+    empty alternation would match anything)."""
+    return "|".join(re.escape(str(name)) for name in names) or "(?!)"
 
 
 wildcard_constraints:
