@@ -76,9 +76,10 @@ import matplotlib.ticker  # noqa: E402
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
 
-from dropfit import Ball, stages, video_limits  # noqa: E402
+from dropfit import Ball, stages  # noqa: E402
 from dropfit.contact import LinearContact  # noqa: E402
 from dropfit.errors import InputError  # noqa: E402
+from dropfit.video import limits as video_limits  # noqa: E402
 from dropfit.synth import simulate_drop  # noqa: E402
 from dropfit.video.track import CLEAN_QUALITIES, track_video  # noqa: E402
 from dropfit.video_synth import Camera, Scene, render_video  # noqa: E402

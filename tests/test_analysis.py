@@ -387,3 +387,13 @@ def test_slowly_drifting_errors_do_not_stop_the_sequence():
     assert np.abs(impacts["t_touchdown_s"].to_numpy() - true_impacts["t_s"].to_numpy()).max() < 1.0 / FRAME_RATE_HZ
     # (their standard errors take the drift for white noise, so e is held to the tolerance only)
     assert np.abs(impacts["e"].to_numpy() - true_impacts["e"].to_numpy()).max() < E_PER_IMPACT_TOLERANCE
+
+
+def test_dips_none_of_which_the_ball_approaches_from_above_keep_every_dip():
+    """A sparse track (15 frames/s) can have its only dip come after samples that rise: no approach speed
+    is positive, and the first impact is the first dip, not an error."""
+    from dropfit.analysis.segmentation import first_impact
+
+    t = np.arange(12) / 15.0  # s
+    y = np.concatenate([np.linspace(0.1, 0.6, 10), [0.0, 0.3]])  # m: rising, then the dip at sample 10
+    assert first_impact(t, y, np.array([10])) == 0

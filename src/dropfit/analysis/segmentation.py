@@ -243,7 +243,7 @@ def first_impact(t, y, dips):
     makes dips that it approaches slowly.
     """
     speed = approach_speed(t, y, dips)
-    if not np.any(np.isfinite(speed)):
+    if not np.any(np.isfinite(speed)) or np.nanmax(speed) <= 0:  # no dip approached from above: keep them all
         return 0
     return int(np.flatnonzero(speed >= FIRST_IMPACT_SPEED_FRACTION * np.nanmax(speed))[0])
 
