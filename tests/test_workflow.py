@@ -39,7 +39,7 @@ LOT_FAILED, LOT_FAILED_BALL = "bad_no_bounce", "A3"
 #: The ball lot of the default data: ball → ITF verdict it was designed to get (data/synthetic/scenarios.yaml).
 LOT = "tennis_lot_A"
 LOT_VERDICTS = {"A1": "pass", "A2": "pass", "A3": "pass", "A4": "fail", "A5": "indeterminate"}
-#: The cores of the test runs, and the most recordings per job of config/config.yaml (chunk_size).
+#: The cores of the test runs (config/config.yaml's parallel_jobs), and the most recordings per job (chunk_size).
 CORES = 2
 CHUNK_SIZE = {"logs": 100, "videos": 4}
 #: The .test/ sample sheet's recordings that fail, and a word of each one's reason.
@@ -108,7 +108,7 @@ def planned_jobs(output):
 
 def test_dry_run_plans_every_sample_in_chunks(tmp_path):
     """``snakemake -n`` with the default profile (2 cores) plans every recording's files exactly once, in
-    chunks of consecutive sample-sheet rows, videos apart, as many chunks as the cores (or a multiple of
+    chunks of consecutive sample-sheet rows, videos apart, as many chunks as parallel_jobs (or a multiple of
     them when a chunk would hold more than chunk_size), one summary and one QC job per batch."""
     root = copy_workflow(tmp_path)
     sheet = sample_sheet(root)

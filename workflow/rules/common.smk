@@ -137,20 +137,15 @@ wildcard_constraints:
 CHUNK_SIZE = {"logs": 100, "videos": 4} | (config.get("chunk_size") or {})
 
 
-def _cores():
-    """The cores of this run (1 where not given, as for --report, or so many that they say nothing, as on
-    a cluster)."""
-    try:
-        cores = workflow.cores
-    except WorkflowError:
-        return 1
-    return cores if isinstance(cores, int) and 0 < cores <= 1024 else 1
+#: Jobs each group of recordings is spread over at least (config parallel_jobs). Not the cores of the
+#: run: a cluster job plans the workflow again where it runs, and its chunks must be the submitter's.
+PARALLEL_JOBS = int(config.get("parallel_jobs") or 2)
 
 
-def chunked(sample_ids, most, cores):
-    """``sample_ids`` split in order into chunks of at most ``most``, as many as a multiple of ``cores``
-    (so that the cores finish together) and never more than the recordings."""
-    count = min(len(sample_ids), cores * math.ceil(len(sample_ids) / (most * cores)))
+def chunked(sample_ids, most, parallel):
+    """``sample_ids`` split in order into chunks of at most ``most``, as many as a multiple of ``parallel``
+    (so that parallel jobs finish together) and never more than the recordings."""
+    count = min(len(sample_ids), parallel * math.ceil(len(sample_ids) / (most * parallel)))
     return [sample_ids[i * len(sample_ids) // count:(i + 1) * len(sample_ids) // count] for i in range(count)]
 
 
@@ -161,7 +156,7 @@ log_samples = list(samples.index[samples["kind"] != "video"])
 #: Chunk name → its sample ids: process_logs_<i> and process_videos_<i>.
 chunks = {f"process_{group}_{i + 1}": members
           for group, members in (("logs", log_samples), ("videos", video_samples))
-          for i, members in enumerate(chunked(members, int(CHUNK_SIZE[group]), _cores()))}
+          for i, members in enumerate(chunked(members, int(CHUNK_SIZE[group]), PARALLEL_JOBS))}
 
 #: The config of ``dropfit batch --config`` (JSON): the keys it maps onto dropfit's options.
 BATCH_CONFIG = json.dumps({key: config[key] for key in ("gravity_m_s2", "latitude_deg", "altitude_m", "analysis",
