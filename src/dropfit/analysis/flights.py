@@ -11,10 +11,9 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from scipy import stats
 from scipy.optimize import least_squares
 
-from ..numerics import jacobian, least_squares_covariance, linear_fit, propagate, robust_sigma
+from ..numerics import chi2_tail, jacobian, least_squares_covariance, linear_fit, propagate, robust_sigma
 from ..physics import flight_height, flight_velocity
 
 #: An impact needs both of its flights sampled at least this often to be analysed.
@@ -56,11 +55,13 @@ class FlightModel:
         rows = np.arange(self.t.size)
         jac = np.zeros((self.t.size, theta.size))
         jac[rows, 2 * self.flight] = 1.0
-        jac[rows, 2 * self.flight + 1] = -flight_velocity(self.t, t_apex[self.flight], 0.0, k, self.g)
+        # only these two columns can be non-finite: cleaning them, not the n × p matrix, keeps a long log cheap
+        jac[rows, 2 * self.flight + 1] = np.nan_to_num(-flight_velocity(self.t, t_apex[self.flight], 0.0, k, self.g))
         if self.with_drag:
-            jac[:, -1] = jacobian(lambda drag: flight_height(self.t, t_apex[self.flight], y_apex[self.flight], drag[0],
-                                                             self.g), np.array([k]), lower=[0.0], absolute_step=1e-7)[:, 0]
-        return np.nan_to_num(jac)
+            jac[:, -1] = np.nan_to_num(jacobian(
+                lambda drag: flight_height(self.t, t_apex[self.flight], y_apex[self.flight], drag[0], self.g),
+                np.array([k]), lower=[0.0], absolute_step=1e-7)[:, 0])
+        return jac
 
     def lower_bounds(self, n_parameters):
         """Lower bound of every parameter: none, but k ≥ 0."""
@@ -191,7 +192,7 @@ def first_misfit_flight(model, result, noise):
     for i in range(model.n_flights):
         residual = residuals[model.flight == i]
         chi2 = independent * float(residual @ residual) / scale**2
-        if stats.chi2.sf(chi2, max(independent * residual.size - 2, 1)) < MISFIT_P_VALUE:
+        if chi2_tail(chi2, max(independent * residual.size - 2, 1)) < MISFIT_P_VALUE:
             return i
     return None
 
