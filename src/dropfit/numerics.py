@@ -43,7 +43,7 @@ def least_squares_covariance(jacobian, residuals, n_parameters=None):
 
     Parameters
     ----------
-    jacobian : numpy.ndarray
+    jacobian : numpy.ndarray or scipy.sparse array
         J, shape (n, p): derivative of the residuals with respect to the parameters.
     residuals : numpy.ndarray
         Residuals at the minimum, shape (n,) (any unit).
@@ -55,13 +55,18 @@ def least_squares_covariance(jacobian, residuals, n_parameters=None):
     numpy.ndarray
         Covariance, shape (p, p), in the parameters' units (a pseudo-inverse where JᵀJ is singular).
     """
-    jacobian = np.asarray(jacobian, dtype=float)
     residuals = np.asarray(residuals, dtype=float)
     p = jacobian.shape[1] if n_parameters is None else n_parameters
     dof = max(residuals.size - p, 1)
     sigma2 = float(residuals @ residuals) / dof
     # columns scaled to unit norm first: parameters of very different size (a drag k of 1e-5 1/px beside
     # an acceleration of 1e4 px/s²) would otherwise lose a direction to the pseudo-inverse's cut-off
+    if hasattr(jacobian, "toarray"):  # sparse (a long log's flights): the p × p product, never an n × p copy
+        gram = (jacobian.T @ jacobian).toarray()
+        norms = np.sqrt(np.diag(gram))
+        norms[norms == 0] = 1.0
+        return sigma2 * np.linalg.pinv(gram / np.outer(norms, norms)) / np.outer(norms, norms)
+    jacobian = np.asarray(jacobian, dtype=float)
     norms = np.linalg.norm(jacobian, axis=0)
     norms[norms == 0] = 1.0
     scaled = jacobian / norms

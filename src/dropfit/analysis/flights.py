@@ -22,6 +22,11 @@ MIN_SAMPLES_PER_FLIGHT = 5
 MISFIT_P_VALUE = 1e-4
 #: An impact must reverse the velocity by this many standard errors; a noise dip does not reverse it.
 VELOCITY_REVERSAL_IN_SE = 3.0
+#: Samples above which the flights are fitted with a sparse Jacobian (two or three non-zeros a row) and
+#: an iterative trust-region step (LSMR): time and memory linear in the samples. The exact dense solver
+#: below it computes an SVD of the n × p Jacobian at every step and holds several n × p copies: 10⁶
+#: samples of 10 flights took minutes and gigabytes. Ordinary logs (up to 10⁵ samples) stay on it.
+LONG_LOG_SAMPLES = 200_000
 
 
 class FlightModel:
@@ -49,18 +54,33 @@ class FlightModel:
         model = flight_height(self.t, t_apex[self.flight], y_apex[self.flight], k, self.g)
         return np.nan_to_num(model - self.y, nan=1e6, neginf=-1e6, posinf=1e6)
 
+    @property
+    def long(self):
+        """Whether the fit uses the sparse Jacobian and iterative solver (:data:`LONG_LOG_SAMPLES`)."""
+        return self.t.size > LONG_LOG_SAMPLES
+
     def jacobian(self, theta):
-        """Analytic derivatives of the residuals by the apex heights and times; k's column numerically."""
+        """Analytic derivatives of the residuals by the apex heights and times; k's column numerically.
+        Dense, or a SciPy sparse array for a :attr:`long` log."""
         y_apex, t_apex, k = self.unpack(theta)
         rows = np.arange(self.t.size)
+        # only these two columns can be non-finite: cleaning them, not the n × p matrix, keeps a long log cheap
+        by_apex_time = np.nan_to_num(-flight_velocity(self.t, t_apex[self.flight], 0.0, k, self.g))
+        by_k = np.nan_to_num(jacobian(
+            lambda drag: flight_height(self.t, t_apex[self.flight], y_apex[self.flight], drag[0], self.g),
+            np.array([k]), lower=[0.0], absolute_step=1e-7)[:, 0]) if self.with_drag else None
+        if self.long:
+            from scipy.sparse import csr_array
+
+            columns = [2 * self.flight, 2 * self.flight + 1] + [np.full(self.t.size, theta.size - 1)] * self.with_drag
+            values = [np.ones(self.t.size), by_apex_time] + [by_k] * self.with_drag
+            return csr_array((np.concatenate(values), (np.tile(rows, len(columns)), np.concatenate(columns))),
+                             shape=(self.t.size, theta.size))
         jac = np.zeros((self.t.size, theta.size))
         jac[rows, 2 * self.flight] = 1.0
-        # only these two columns can be non-finite: cleaning them, not the n × p matrix, keeps a long log cheap
-        jac[rows, 2 * self.flight + 1] = np.nan_to_num(-flight_velocity(self.t, t_apex[self.flight], 0.0, k, self.g))
+        jac[rows, 2 * self.flight + 1] = by_apex_time
         if self.with_drag:
-            jac[:, -1] = np.nan_to_num(jacobian(
-                lambda drag: flight_height(self.t, t_apex[self.flight], y_apex[self.flight], drag[0], self.g),
-                np.array([k]), lower=[0.0], absolute_step=1e-7)[:, 0])
+            jac[:, -1] = by_k
         return jac
 
     def lower_bounds(self, n_parameters):
@@ -72,6 +92,9 @@ class FlightModel:
 
     def fit(self, theta0):
         """Least-squares fit from ``theta0`` (scipy's OptimizeResult)."""
+        if self.long:
+            return least_squares(self.residuals, theta0, jac=self.jacobian, bounds=(self.lower_bounds(theta0.size), np.inf),
+                                 method="trf", tr_solver="lsmr", x_scale="jac", xtol=1e-12, ftol=1e-12)
         if self.with_drag:
             return least_squares(self.residuals, theta0, jac=self.jacobian, bounds=(self.lower_bounds(theta0.size), np.inf),
                                  method="trf", x_scale="jac", xtol=1e-12, ftol=1e-12)
