@@ -29,3 +29,18 @@ def test_sparse_solver_matches_the_dense_one(tmp_path, monkeypatch, drag):
     assert abs(sparse.summary["drop_height_m"] - dense.summary["drop_height_m"]) < 1e-3 * dense.summary["drop_height_se_m"]
     # and both are right: the generator's e within four standard errors
     assert np.all(np.abs(sparse.impacts["e"] - 0.8) < 4 * sparse.impacts["e_se"])
+
+
+def test_shared_acceleration_of_a_long_log_is_the_joint_least_squares(monkeypatch):
+    """The flight-by-flight projection of a long log gives the joint fit's A and standard error."""
+    rng = np.random.default_rng(11)
+    pieces = []
+    for start, size in ((0.0, 40), (0.5, 55), (1.1, 30)):
+        time = start + np.sort(rng.uniform(0.0, 0.4, size))
+        tau = time - time[0]
+        pieces.append((time, 1.0 + rng.normal() * tau - 0.5 * 9.81 * tau**2 + rng.normal(0.0, 0.002, size)))
+    joint = flights.shared_acceleration(pieces)
+    monkeypatch.setattr(flights, "LONG_LOG_SAMPLES", 10)
+    projected = flights.shared_acceleration(pieces)
+    assert projected == pytest.approx(joint, rel=1e-9)
+    assert abs(projected[0] - 9.81) < 4 * projected[1]
