@@ -235,7 +235,7 @@ def test_site_gravity():
 
 
 @pytest.mark.parametrize("options, words", [
-    ({"ball_radius_m": 33.5}, "ball_radius_m is 33.5; give the ball's radius in m"),
+    ({"ball_radius_m": 33.5}, "ball_radius_m is 33.5 m, implausible: likely given in cm (0.335 m) or mm (0.0335 m); give the ball's radius in m"),
     ({"ball_mass_kg": 0}, "ball_mass_kg is 0"),
     ({"ball_type": "golf"}, "ball_type is 'golf', not a kind dropfit knows"),
     ({"gravity_m_s2": math.nan}, "gravity_m_s2 is nan"),
@@ -304,10 +304,10 @@ def test_workflow_values_map_config_and_row():
     row["gravity_m_s2"] = 9.79
     site = workflow_values(CONFIG, row)
     assert site["gravity_m_s2"] == 9.79 and "latitude_deg" not in site and "altitude_m" not in site
-    assert sorted(stage_arguments("analyse", CONFIG, row)) == sorted(["--gravity-m-s2", "9.79", "--drag", "auto"])
-    assert "--ball-radius-m" in stage_arguments("measure", CONFIG, row)
-    assert stage_arguments("fit", CONFIG, row)[:2] == ["--ball-type", "rubber"]
-    assert "--ball-type" not in stage_arguments("qc", CONFIG, None)
+    assert sorted(stage_arguments("analyse", CONFIG, row)) == sorted(["--gravity-m-s2=9.79", "--drag=auto"])
+    assert any(argument.startswith("--ball-radius-m=") for argument in stage_arguments("measure", CONFIG, row))
+    assert stage_arguments("fit", CONFIG, row)[0] == "--ball-type=rubber"
+    assert not any(argument.startswith("--ball-type") for argument in stage_arguments("qc", CONFIG, None))
     ball, settings = settings_from_config(CONFIG, row)
     assert ball == Ball(0.025, 0.05, "rubber") and settings.gravity_m_s2 == 9.79 and settings.latitude_deg is None
 

@@ -16,8 +16,8 @@ from __future__ import annotations
 
 import numpy as np
 import pandas as pd
-from scipy import stats
 
+from .numerics import t_quantile
 from .restitution import ITF_REBOUND_MAX_M, ITF_REBOUND_MIN_M, Z95, itf_verdict
 
 #: Verdicts counted for a batch, in report order.
@@ -65,7 +65,7 @@ def mean_over_drops(values, standard_errors):
         sd = float(values.std(ddof=1))
         scatter_se = sd / np.sqrt(n)
         source = "drop-to-drop scatter" if scatter_se >= measurement_se else "measurement"
-        se, quantile = max(scatter_se, measurement_se), float(stats.t.ppf(0.975, n - 1))
+        se, quantile = max(scatter_se, measurement_se), float(t_quantile(0.975, n - 1))
     return {"value": mean, "se": se, "ci95": [mean - quantile * se, mean + quantile * se], "n": n,
             "sd_between_drops": sd, "se_from": source}
 

@@ -4,9 +4,12 @@ them on one recording, and ``dropfit batch`` for the recordings of a sample shee
 The options (``--ball-radius-m``, ``--gravity-m-s2``, ``--drag`` …) are those of
 :data:`dropfit.settings.OPTIONS`; one not given takes the default of :class:`dropfit.settings.Settings`.
 
-A problem with the input prints one line, ``dropfit: error: <file>: <what is wrong>; <what to try>``,
+A value starting with ``-`` is read as a value where its flag takes one (``--floor-m -5e-05``, which
+argparse alone reads as an option); a recording whose name starts with ``-`` comes after ``--``
+(``dropfit run --out DIR -- -drop.csv``). A problem with the input prints one line, ``dropfit: error: <file>: <what is wrong>; <what to try>``,
 and exits with status 1; with ``--record-failure`` the stage instead writes failure records to its
-outputs and exits 0, so that a batch goes on and its summary lists the recording. The line quotes
+outputs and exits 0 (also for a usage error, such as an option value that is not a number, when the
+outputs can be read from the command line), so that a batch goes on and its summary lists the recording. The line quotes
 the user's text only through :func:`dropfit.errors.shown` (short, no control characters), and an
 output the failed stage had begun to write is removed: outputs are whole or absent.
 """
@@ -20,15 +23,60 @@ import traceback
 import warnings
 from pathlib import Path
 
-from . import stages
+from . import __version__, stages
 from .errors import InputError, one_line, shown, shown_path
 from .files import write_failure
+from .heightlog import is_number
 from .settings import OPTIONS, OptionError, Settings, option_default, split_options
 
 
-def _parser():
-    parser = argparse.ArgumentParser(prog="dropfit", description="Ball drop tests to trustworthy numbers.")
-    sub = parser.add_subparsers(dest="command", required=True)
+SAMPLE_ID_HELP = "the recording's name, kept in its outputs (the workflow's sample_id)"
+#: The report's files: its inputs, as dropfit measure, analyse and fit write them, and its outputs.
+REPORT_FILES = {"trajectory": "trajectory NetCDF (dropfit measure)", "flights": "flights table (CSV, dropfit analyse)",
+                "impacts": "impacts table (CSV, dropfit analyse)", "analysis": "analysis summary (JSON, dropfit analyse)",
+                "fit": "fit result (JSON, dropfit fit)", "html": "report to write (HTML)",
+                "figure": "figure to write (PNG)"}
+
+
+class _UsageError(Exception):
+    """A command line argparse cannot read: the parser that says so and its message."""
+
+    def __init__(self, parser, message):
+        super().__init__(message)
+        self.parser = parser
+
+
+class _Parser(argparse.ArgumentParser):
+    """argparse, raising :class:`_UsageError` instead of exiting, so that ``--record-failure`` can record it."""
+
+    def error(self, message):
+        raise _UsageError(self, message)
+
+
+def build_parser(lenient=False):
+    """The command line's parser; ``lenient``: every option value taken as text and none required, to find
+    the outputs of a command line the strict parser refused."""
+    parser = _Parser(prog="dropfit", description="Ball drop tests to trustworthy numbers.")
+    parser.add_argument("--version", action="version", version=f"dropfit {__version__}",
+                        help="print dropfit's version and exit")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND",
+                                help="the stage to run (dropfit COMMAND --help for its options)")
+    real_add_parser = sub.add_parser
+
+    def add_parser(name, **kwargs):
+        command = real_add_parser(name, **kwargs)
+        if lenient:  # a bad value or a missing option is what the strict parser reports
+            real_add_argument = command.add_argument
+
+            def add_argument(*names, **options):
+                if names[0].startswith("-") and "action" not in options:
+                    options.update(required=False, type=None, choices=None)
+                return real_add_argument(*names, **options)
+
+            command.add_argument = add_argument
+        return command
+
+    sub.add_parser = add_parser
 
     def stage(name, help_text):
         command = sub.add_parser(name, help=help_text, description=help_text)
@@ -53,7 +101,7 @@ def _parser():
     run.add_argument("recording", help="height log CSV, a video (.avi, .mp4, .mov, .mkv, .m4v), the sound of the "
                                        "bounces (.wav, .flac, .ogg, .m4a, .aac, .mp3) or a CSV of impact times")
     run.add_argument("--out", required=True, help="directory to write the files into")
-    run.add_argument("--sample-id")
+    run.add_argument("--sample-id", help=SAMPLE_ID_HELP)
     _add_options(run, "run")
 
     batch = sub.add_parser("batch", help="the recordings of a sample sheet → the files dropfit run writes for each, in "
@@ -71,7 +119,7 @@ def _parser():
     measure.add_argument("log", help="height log CSV, a video (.avi, .mp4, .mov, .mkv, .m4v), the sound of the "
                                      "bounces (.wav, .flac, .ogg, .m4a, .aac, .mp3) or a CSV of impact times")
     measure.add_argument("--out", required=True, help="trajectory NetCDF to write")
-    measure.add_argument("--sample-id")
+    measure.add_argument("--sample-id", help=SAMPLE_ID_HELP)
     measure.add_argument("--track", help="a video's tracked table to write (CSV: every frame's ball in px and its "
                                          "quality flag); written even when the clip is then refused")
     _add_options(measure, "measure")
@@ -85,7 +133,7 @@ def _parser():
                                            "impacts.csv, analysis.json, as dropfit measure --track and analyse write "
                                            "them); without it the video is tracked and analysed with the options")
     overlay.add_argument("--tiles", type=int, help="frames on the contact sheet (default 16)")
-    overlay.add_argument("--sample-id")
+    overlay.add_argument("--sample-id", help=SAMPLE_ID_HELP)
     _add_options(overlay, "run")
 
     sound_video = stage("sound-video", "a video with sound: impacts heard and seen paired (CSV), the audio/video "
@@ -93,25 +141,25 @@ def _parser():
     sound_video.add_argument("video", help="a video with a sound track (.mp4, .mov, .mkv, .avi)")
     sound_video.add_argument("--out", required=True, help="paired impacts to write (CSV)")
     sound_video.add_argument("--summary", required=True, help="offset and e from both to write (JSON)")
-    sound_video.add_argument("--sample-id")
+    sound_video.add_argument("--sample-id", help=SAMPLE_ID_HELP)
     _add_options(sound_video, "run")
 
     analyse = stage("analyse", "trajectory → impacts and flights tables (CSV) and analysis summary (JSON)")
-    analyse.add_argument("trajectory")
-    analyse.add_argument("--impacts", required=True)
-    analyse.add_argument("--flights", required=True)
-    analyse.add_argument("--summary", required=True)
+    analyse.add_argument("trajectory", help="trajectory NetCDF (dropfit measure)")
+    analyse.add_argument("--impacts", required=True, help="impacts table to write (CSV)")
+    analyse.add_argument("--flights", required=True, help="flights table to write (CSV)")
+    analyse.add_argument("--summary", required=True, help="analysis summary to write (JSON)")
     _add_options(analyse, "analyse")
 
     fit = stage("fit", "impacts → fit result (JSON): e, theory checks, ITF verdict")
-    fit.add_argument("--analysis", required=True)
-    fit.add_argument("--impacts", required=True)
-    fit.add_argument("--out", required=True)
+    fit.add_argument("--analysis", required=True, help="analysis summary (JSON, dropfit analyse)")
+    fit.add_argument("--impacts", required=True, help="impacts table (CSV, dropfit analyse)")
+    fit.add_argument("--out", required=True, help="fit result to write (JSON)")
     _add_options(fit, "fit")
 
     report = stage("report", "per-recording HTML report and PNG figure")
-    for name in ("trajectory", "flights", "impacts", "analysis", "fit", "html", "figure"):
-        report.add_argument(f"--{name}", required=True)
+    for name, help_text in REPORT_FILES.items():
+        report.add_argument(f"--{name}", required=True, help=help_text)
     report.add_argument("--contact-sheet", help="a video's contact sheet (PNG, dropfit overlay) to show; a failed "
                                                 "report's page shows it too")
 
@@ -251,9 +299,55 @@ def _stat(path):
     return info.st_ino, info.st_mtime_ns, info.st_size
 
 
+def _bound_values(argv):
+    """``argv`` with ``--flag -5e-05`` as ``--flag=-5e-05`` where the flag takes a value: argparse reads a
+    token that starts with ``-`` as an option unless it looks like a plain negative number."""
+    flags = {option.flag for option in OPTIONS.values()} | {"--seed", "--tiles"}
+    bound = []
+    tokens = iter(argv)
+    for token in tokens:
+        if token == "--":  # what follows is positional (a recording named -x.csv): leave it as it is
+            bound += [token, *tokens]
+            break
+        if token in flags:
+            value = next(tokens, None)
+            if value is not None and value.startswith("-") and is_number(value):
+                bound.append(f"{token}={value}")
+                continue
+            bound += [token] if value is None else [token, value]
+            continue
+        bound.append(token)
+    return bound
+
+
+def _usage_failure(argv, error):
+    """A command line the parser refused: argparse's usage and message and exit status 2; under
+    ``--record-failure``, when the outputs can be read from the command line, its failure records
+    (status 0, as for any failed recording)."""
+    if "--record-failure" in argv:
+        try:
+            args, _ = build_parser(lenient=True).parse_known_args(argv)
+            outputs = _outputs(args)
+            line = one_line(f"{_input_name(args)}: {shown(str(error))}; see dropfit {args.command} --help")
+        except (_UsageError, InputError, AttributeError, KeyError, TypeError):
+            outputs = []
+        if outputs:
+            print(f"dropfit: error: {line}", file=sys.stderr)
+            for path in outputs:
+                write_failure(path, line, None)
+            return 0
+    error.parser.print_usage(sys.stderr)
+    print(f"{error.parser.prog}: error: {error}", file=sys.stderr)
+    return 2
+
+
 def main(argv=None):
     """Entry point of the ``dropfit`` console script and ``python -m dropfit``."""
-    args = _parser().parse_args(argv)
+    argv = _bound_values([str(token) for token in (sys.argv[1:] if argv is None else argv)])
+    try:
+        args = build_parser().parse_args(argv)
+    except _UsageError as error:
+        return _usage_failure(argv, error)
     record = getattr(args, "record_failure", False)
     outputs = _outputs(args)
     before = {path: _stat(path) for path in outputs}

@@ -84,6 +84,8 @@ def fit_summary(summary, impacts, settings=None, ball_type=None):
     settings = settings or Settings()
     attrs = summary.get("trajectory_attrs", {})
     ball_type = ball_type or attrs.get("ball_type")
+    if ball_type:  # any case, as the options take it; an unknown kind is refused, not silently not tennis
+        ball_type = ball_kind(ball_type).name
     mass = attrs.get("ball_mass_kg")
     used = fit_rows(impacts)
     if used.size == 0:

@@ -173,7 +173,7 @@ def _check_header(path, header, rows):
                              f"between the columns")
     tokens, values = header.split(), sample.split()
     named = any(token.startswith(("time_", "y_")) for token in tokens)
-    if len(tokens) > 1 and (named or (len(values) == len(tokens) and all(map(_is_number, values)))):
+    if len(tokens) > 1 and (named or (len(values) == len(tokens) and all(map(is_number, values)))):
         raise InputError(f"{name}: the columns are separated by spaces, not commas; save it as CSV with commas "
                          f"between the columns")
 
@@ -221,7 +221,7 @@ def read_height_log(path, horizontal=False):
     repeated = sorted({field for field in header if field and header.count(field) > 1})
     if repeated:
         raise InputError(f"{name}: the header names column {shown(repeated[0], 30)} twice; keep one of them")
-    if all(_is_number(field) for field in header if field):
+    if all(is_number(field) for field in header if field):
         raise InputError(f"{name}: has no header: its first line holds numbers ('{shown(lines[0], 30)}'); add a "
                          f"header line such as time_s,y_m")
     _check_fields(path, header, lines[1:])
@@ -266,7 +266,8 @@ _MISSING = {"", "#N/A", "#N/A N/A", "#NA", "-1.#IND", "-1.#QNAN", "-NaN", "-nan"
             "NA", "NULL", "NaN", "None", "n/a", "nan", "null"}
 
 
-def _is_number(text):
+def is_number(text):
+    """Whether ``text`` reads as a float (``-5e-05``, ``nan``, ``inf`` too)."""
     try:
         float(text)
     except ValueError:

@@ -1,10 +1,15 @@
-"""The three numerical helpers every estimator shares: a robust standard deviation, the covariance of a
-least-squares fit from its Jacobian, and numerical derivatives. Each formula lives here once.
+"""The numerical helpers every estimator shares: a robust standard deviation, the covariance of a
+least-squares fit from its Jacobian, numerical derivatives, and the normal, t and χ² quantiles and tails.
+Each formula lives here once.
+
+The distributions come from :mod:`scipy.special` (exact, and cheap to import), not :mod:`scipy.stats`,
+whose import alone costs most of a second of each command's start-up.
 """
 
 from __future__ import annotations
 
 import numpy as np
+from scipy.special import chdtrc, ndtri, stdtrit
 
 #: σ = MAD_SCALE × median absolute deviation for Gaussian data.
 MAD_SCALE = 1.4826
@@ -38,7 +43,7 @@ def least_squares_covariance(jacobian, residuals, n_parameters=None):
 
     Parameters
     ----------
-    jacobian : numpy.ndarray
+    jacobian : numpy.ndarray or scipy.sparse array
         J, shape (n, p): derivative of the residuals with respect to the parameters.
     residuals : numpy.ndarray
         Residuals at the minimum, shape (n,) (any unit).
@@ -50,13 +55,18 @@ def least_squares_covariance(jacobian, residuals, n_parameters=None):
     numpy.ndarray
         Covariance, shape (p, p), in the parameters' units (a pseudo-inverse where JᵀJ is singular).
     """
-    jacobian = np.asarray(jacobian, dtype=float)
     residuals = np.asarray(residuals, dtype=float)
     p = jacobian.shape[1] if n_parameters is None else n_parameters
     dof = max(residuals.size - p, 1)
     sigma2 = float(residuals @ residuals) / dof
     # columns scaled to unit norm first: parameters of very different size (a drag k of 1e-5 1/px beside
     # an acceleration of 1e4 px/s²) would otherwise lose a direction to the pseudo-inverse's cut-off
+    if hasattr(jacobian, "toarray"):  # sparse (a long log's flights): the p × p product, never an n × p copy
+        gram = (jacobian.T @ jacobian).toarray()
+        norms = np.sqrt(np.diag(gram))
+        norms[norms == 0] = 1.0
+        return sigma2 * np.linalg.pinv(gram / np.outer(norms, norms)) / np.outer(norms, norms)
+    jacobian = np.asarray(jacobian, dtype=float)
     norms = np.linalg.norm(jacobian, axis=0)
     norms[norms == 0] = 1.0
     scaled = jacobian / norms
@@ -118,3 +128,49 @@ def jacobian(function, theta, lower=None, relative_step=1e-6, absolute_step=1e-6
 def derivative(function, x, step):
     """Central-difference derivative of a (vector) function of one scalar ``x``, with the given step."""
     return (np.asarray(function(x + step), dtype=float) - np.asarray(function(x - step), dtype=float)) / (2.0 * step)
+
+
+def running_min(values, half_width):
+    """The smallest of ``values[i - half_width : i + half_width + 1]`` for every i (the window cut at the ends).
+
+    Linear in the length whatever the window (van Herk / Gil–Werman: minima running forward and
+    backward within blocks of the window's width), where comparing each sample with its 2w neighbours
+    costs n × w.
+
+    Parameters
+    ----------
+    values : numpy.ndarray
+        Shape (n,), finite (any unit).
+    half_width : int
+        w ≥ 0, samples on each side.
+
+    Returns
+    -------
+    numpy.ndarray
+        Shape (n,), in the unit of ``values``.
+    """
+    values = np.asarray(values, dtype=float)
+    width = 2 * half_width + 1
+    blocks_needed = -(-(values.size + 2 * half_width) // width)
+    padded = np.full(blocks_needed * width, np.inf)
+    padded[half_width: half_width + values.size] = values
+    blocks = padded.reshape(-1, width)
+    forward = np.minimum.accumulate(blocks, axis=1).ravel()
+    backward = np.minimum.accumulate(blocks[:, ::-1], axis=1)[:, ::-1].ravel()
+    # the window starting at i covers the end of i's block (backward) and the start of the next (forward)
+    return np.minimum(backward[: values.size], forward[width - 1: width - 1 + values.size])
+
+
+def normal_quantile(probability):
+    """The standard normal distribution's quantile: z with P(Z ≤ z) = ``probability`` (array or float)."""
+    return ndtri(probability)
+
+
+def t_quantile(probability, dof):
+    """Student's t quantile: t with P(T ≤ t) = ``probability`` for ``dof`` degrees of freedom (> 0)."""
+    return stdtrit(dof, probability)
+
+
+def chi2_tail(chi2, dof):
+    """The p-value of a χ² statistic: P(X ≥ ``chi2``) for ``dof`` degrees of freedom (any real > 0)."""
+    return chdtrc(dof, chi2)

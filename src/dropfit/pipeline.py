@@ -33,7 +33,7 @@ from .fitrecord import analysis_summary, fit_summary, plain
 from .heightlog import nominal_drag_of, trajectory_from_log
 from .result import RecordingResult
 from .settings import Ball, Settings, split_options
-from .video.track import TRACKED_CENTRE_CORRELATION
+from .video.quality import TRACKED_CENTRE_CORRELATION
 from .videolog import VIDEO_SUFFIXES, is_video, scale_targets_of, trajectory_from_video
 
 #: Settings that apply to measuring a recording, not to an already measured trajectory.
@@ -183,7 +183,7 @@ def analysis_options(attrs, settings=None, sample_interval_s=0.0):
         frames are exposed around their time; else 0), ``nominal_drag_k_per_m`` and
         ``nominal_drag_relative_se`` (a smooth ball of the kind's C_d, size and mass, 1/m; 0 when the
         size or mass is unknown), ``noise_correlation``
-        (:data:`dropfit.video.track.TRACKED_CENTRE_CORRELATION` for a video, else 0), and the ball kind's
+        (:data:`dropfit.video.quality.TRACKED_CENTRE_CORRELATION` for a video, else 0), and the ball kind's
         contact-time prior, exponent and longest contact time (:mod:`dropfit.balls`) with the radius.
     """
     settings = settings or Settings()

@@ -5,12 +5,11 @@ ITF verdict. Pure functions on the outputs of :func:`dropfit.analysis.analyse_bo
 from __future__ import annotations
 
 import numpy as np
-from scipy import stats
 
-from .numerics import jacobian, propagate
+from .numerics import chi2_tail, jacobian, normal_quantile, propagate
 from .physics import apex_rise, bounce_heights, speed_below_apex, total_bouncing_time
 
-Z95 = float(stats.norm.ppf(0.975))
+Z95 = float(normal_quantile(0.975))
 
 #: ITF Rules of Tennis, Appendix I: dropped from 254 cm onto a rigid surface, the ball must rebound
 #: more than 135 cm and less than 147 cm.
@@ -106,7 +105,7 @@ def constant_restitution(e, covariance):
         "weights": fitted["estimator"][0].tolist(),
         "chi2": fitted["chi2"],
         "dof": dof,
-        "p_value": float(stats.chi2.sf(fitted["chi2"], dof)) if dof > 0 else float("nan"),
+        "p_value": float(chi2_tail(fitted["chi2"], dof)) if dof > 0 else float("nan"),
         "n_impacts": int(e.size),
     }
 

@@ -73,6 +73,9 @@ class Option:
         Whether the workflow's sample sheet may give it per recording (a column of the same name).
     text : bool
         A text option (else a number).
+    slips : tuple of (str, float)
+        Units a value outside the range was likely written in, each with its size in the option's unit
+        (``("cm", 0.01)`` for a length in m): the message names those that bring the value inside.
     """
 
     name: str
@@ -87,6 +90,7 @@ class Option:
     config: tuple | None = None
     column: bool = False
     text: bool = False
+    slips: tuple = ()
 
     @property
     def flag(self):
@@ -115,8 +119,16 @@ class Option:
             inside = math.isfinite(value) and (value >= self.low if self.low_allowed else value > self.low) \
                 and value <= self.high
         if not inside:
-            raise OptionError(f"{{0}} is {value:g}; give {self.what}", self.name)
+            raise OptionError(f"{{0}} is {value:g}{self._slip_hint(value)}; give {self.what}", self.name)
         return value
+
+    def _slip_hint(self, value):
+        """``: likely in cm (0.0335 m) or mm …`` for the units of :attr:`slips` that bring ``value`` inside the
+        range, else nothing."""
+        unit = self.name.rsplit("_", 1)[-1]
+        likely = [f"{name} ({value * size:g} {unit})" for name, size in self.slips
+                  if self.low < value * size <= self.high]
+        return f" {unit}, implausible: likely given in {' or '.join(likely)}" if likely else ""
 
 
 #: Ball colours by name, BGR grey levels (as a camera in daylight sees them, roughly).
@@ -175,9 +187,9 @@ _FIT, _ITF = ("fit", "run"), ("fit", "qc", "run")
 #: wrong unit (a radius of 33.5 given in mm).
 OPTIONS = {option.name: option for option in (
     Option("ball_radius_m", "ball radius in m", _MEASURE, "the ball's radius in m (a tennis ball: 0.0335)",
-           0.0, 1.0, False, column=True),
+           0.0, 1.0, False, column=True, slips=(("cm", 0.01), ("mm", 0.001))),
     Option("ball_mass_kg", "ball mass in kg", _MEASURE, "the ball's mass in kg (a tennis ball: 0.057)",
-           0.0, 20.0, False, column=True),
+           0.0, 20.0, False, column=True, slips=(("g", 0.001),)),
     Option("ball_type", f"kind of ball: {', '.join(BALL_KINDS)} (tennis gets the ITF verdict)",
            _MEASURE + ("fit",), text=True, column=True),
     Option("scale_m_per_px", "m per px for logs in px (negative if the axis points down) or videos; "
@@ -604,13 +616,15 @@ def settings_from_config(config, row=None):
 
 
 def stage_arguments(stage, config, row=None):
-    """The ``--flag value`` arguments (strings, unquoted) of one workflow stage of one recording: the
-    options of :func:`workflow_values` that ``dropfit <stage>`` takes."""
-    arguments = []
-    for name, value in workflow_values(config, row).items():
-        if stage in OPTIONS[name].stages:
-            arguments += [OPTIONS[name].flag, repr(value) if isinstance(value, float) else str(value)]
-    return arguments
+    """The ``--flag=value`` arguments (strings, unquoted) of one workflow stage of one recording: the
+    options of :func:`workflow_values` that ``dropfit <stage>`` takes.
+
+    Each value is bound to its flag by ``=``: a value starting with ``-`` (``-5e-05``, a column
+    spec) would otherwise be read as an option. A recording path is not an option: the workflow
+    passes it after ``--``.
+    """
+    return [f"{OPTIONS[name].flag}={repr(value) if isinstance(value, float) else value}"
+            for name, value in workflow_values(config, row).items() if stage in OPTIONS[name].stages]
 
 
 def option_default(name):

@@ -23,8 +23,8 @@ BIC among the models that their own test does not reject (``per_impact`` is neve
 from __future__ import annotations
 
 import numpy as np
-from scipy import stats
 
+from .numerics import chi2_tail
 from .restitution import Z95, estimate, weighted_fit
 
 #: Exponent of the viscoelastic Hertz law 1 − e = b v^p (fixed, not fitted).
@@ -179,7 +179,7 @@ def _reported_parameters(names, theta, covariance):
 
 def _model_record(model, names, theta, covariance, jacobian_e, chi2, dof, n):
     """JSON-ready record of a fitted model, its covariance widened by the Birge ratio where it misfits."""
-    p_value = float(stats.chi2.sf(chi2, dof)) if dof > 0 else float("nan")
+    p_value = float(chi2_tail(chi2, dof)) if dof > 0 else float("nan")
     factor = birge_factor(chi2, dof, p_value)
     covariance = factor**2 * np.asarray(covariance, dtype=float)
     n_parameters = len(names)

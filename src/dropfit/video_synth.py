@@ -36,9 +36,9 @@ from pathlib import Path
 from .video.opencv import cv2
 import numpy as np
 import pandas as pd
-from scipy.special import ndtri
 
 from .contact import LinearContact
+from .numerics import normal_quantile
 from .synth import ground_truth_record, simulate_drop
 
 #: Sub-samples per pixel side used for the ball's edge pixels (16 × 16 = 256 samples per pixel).
@@ -46,7 +46,7 @@ SUPERSAMPLE = 16
 #: Codecs tried in order: (fourcc, file suffix, use OpenCV's own MJPEG writer with a quality setting).
 _CODECS = (("MJPG", ".avi", True), ("MJPG", ".avi", False), ("mp4v", ".mp4", False))
 #: Gaussian quantiles addressed by a uniform 16-bit integer: fast seeded sensor noise (tails to 4.3 σ).
-_NOISE_TABLE = ndtri((np.arange(65536) + 0.5) / 65536).astype(np.float32)
+_NOISE_TABLE = normal_quantile((np.arange(65536) + 0.5) / 65536).astype(np.float32)
 
 
 @dataclass(frozen=True)

@@ -122,7 +122,7 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
         at this value is added to every uncertainty. 0 = no drag known.
     noise_correlation : float
         Lag-1 autocorrelation (dimensionless, 0 ≤ ρ < 1) of the height errors of successive samples,
-        e.g. :data:`dropfit.video.track.TRACKED_CENTRE_CORRELATION` for a video. The fit's covariance,
+        e.g. :data:`dropfit.video.quality.TRACKED_CENTRE_CORRELATION` for a video. The fit's covariance,
         which assumes independent errors, is multiplied by (1 + ρ)/(1 − ρ), the variance factor of
         an average over AR(1) errors. 0 for a sensor's white noise.
     gravity_se_m_s2 : float

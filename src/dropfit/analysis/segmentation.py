@@ -24,7 +24,7 @@ import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
 from ..errors import InputError, NotFreeFallError
-from ..numerics import linear_fit, robust_sigma
+from ..numerics import linear_fit, robust_sigma, running_min
 from .flights import MIN_SAMPLES_PER_FLIGHT, shared_acceleration
 
 #: A dip must fall and rise by this many noise standard deviations to count as an impact.
@@ -195,9 +195,7 @@ def find_impacts(y, noise, start=0, max_lag=3):
         idx = np.arange(max(start, lag), y.size - lag)
         if idx.size == 0:
             break
-        lowest = np.ones(idx.size, dtype=bool)
-        for shift in range(1, lag + 1):
-            lowest &= (y[idx] <= y[idx - shift]) & (y[idx] <= y[idx + shift])
+        lowest = y[idx] <= running_min(y, lag)[idx]
         rise = np.minimum(y[idx - lag], y[idx + lag]) - y[idx]
         # the lag-2 test also accepts a rise over three samples, for slow, low bounces
         if lag == 2 and y.size > 3:
@@ -206,9 +204,12 @@ def find_impacts(y, noise, start=0, max_lag=3):
             wider[ok] = np.minimum(y[idx[ok] - 3], y[idx[ok] + 3]) - y[idx[ok]]
             rise = np.maximum(rise, wider)
         candidates = idx[lowest & (rise > depth)]
-        if found.size:
-            distance = np.min(np.abs(candidates[:, None] - found[None, :]), axis=1) if candidates.size else []
-            candidates = candidates[np.asarray(distance) > lag] if candidates.size else candidates
+        if found.size and candidates.size:
+            # the nearest found dip is one of the two that the candidate falls between
+            after = np.searchsorted(found, candidates)
+            before = found[np.maximum(after - 1, 0)]
+            distance = np.minimum(np.abs(candidates - before), np.abs(found[np.minimum(after, found.size - 1)] - candidates))
+            candidates = candidates[distance > lag]
         found = np.union1d(found, candidates)
     return found
 

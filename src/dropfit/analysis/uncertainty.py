@@ -23,6 +23,11 @@ def correlated_noise_factor(correlation):
 
 def refit_response(result, residual_change):
     """Linearised change of the fitted θ when the residuals change by ``residual_change`` (least squares)."""
+    if hasattr(result.jac, "toarray"):  # a long log's sparse Jacobian: the p × p normal equations, columns scaled
+        gram = (result.jac.T @ result.jac).toarray()
+        norms = np.sqrt(np.diag(gram))
+        norms[norms == 0] = 1.0
+        return -(np.linalg.pinv(gram / np.outer(norms, norms)) @ (result.jac.T @ residual_change / norms)) / norms
     return -np.linalg.lstsq(result.jac, residual_change, rcond=None)[0]
 
 

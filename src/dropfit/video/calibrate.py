@@ -65,7 +65,6 @@ import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.ndimage import gaussian_filter1d, maximum_filter1d
 from scipy.optimize import least_squares
 
 from ..numerics import least_squares_covariance, linear_fit, robust_sigma
@@ -208,6 +207,8 @@ def _dark_runs(profile):
     profile's length (at least :data:`FACE_WINDOW_PX`): a ruler darker than the wall behind it keeps its
     own face level, and a painted band is shorter than the window.
     """
+    from scipy.ndimage import maximum_filter1d  # here: only a ruler's image needs it, not every trajectory
+
     window = max(FACE_WINDOW_PX, profile.size // 6)
     face = maximum_filter1d(profile, window, mode="nearest")
     darkness = np.clip(face - profile, 0.0, None)
@@ -388,6 +389,8 @@ def ruler_scale(image, tick_m):
 
 def _ruler_in(grey, tick_m):
     """:func:`ruler_scale` on one channel with the ruler along its rows (its columns cross the ticks)."""
+    from scipy.ndimage import gaussian_filter1d  # here: only a ruler's image needs it, not every trajectory
+
     score = np.mean(np.abs(np.diff(gaussian_filter1d(grey, 1.0, axis=0), axis=0)), axis=0)
     median = float(np.median(score))
     strong = score > RULER_COLUMN_CONTRAST * median

@@ -60,18 +60,10 @@ import numpy as np
 from ..numerics import least_squares_covariance, robust_sigma
 from .contrast import chromaticity
 from .opencv import cv2
-
-QUALITY_OK = "ok"
-
-QUALITY_PARTIAL = "partial"
-
-QUALITY_OCCLUDED = "occluded"
-
-QUALITY_LOST = "lost"
-
-QUALITY_DUPLICATE = "duplicate"
-
-QUALITY_BLURRED = "blurred"
+# the flags documented above, kept importable from here; defined apart so that reading a tracked
+# table does not load OpenCV
+from .quality import (QUALITY_BLURRED, QUALITY_DUPLICATE, QUALITY_LOST, QUALITY_OCCLUDED, QUALITY_OK,  # noqa: F401
+                      QUALITY_PARTIAL)
 
 #: A blob whose chromaticity is farther than this from the ball's given colour is not the ball (the share
 #: of a channel in the sum: a red ball is about (0.14, 0.14, 0.71), a green one (0.2, 0.6, 0.2)).

@@ -35,8 +35,7 @@ import numpy as np
 from ..analysis import estimate_noise
 from ..errors import InputError, shown_path
 from ..physics import STANDARD_GRAVITY_M_S2
-from .detect import QUALITY_DUPLICATE, QUALITY_LOST, QUALITY_OCCLUDED, QUALITY_PARTIAL
-from .track import CLEAN_QUALITIES
+from .quality import CLEAN_QUALITIES, QUALITY_DUPLICATE, QUALITY_LOST, QUALITY_OCCLUDED, QUALITY_PARTIAL
 
 #: Smallest tracked ball radius, px. Sweep: a ball drawn with radius 1 px is never found and one of
 #: 1.25 px in no clean frame; drawn with 1.5–2 px it is tracked as 2.2–2.3 px (the edge threshold

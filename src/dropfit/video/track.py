@@ -48,19 +48,13 @@ from .background import (BACKGROUND_SAMPLES, Background, background_without_ball
                          to_grey)
 from .contrast import CHANNELS, CHROMA, GREY, Contrast, available_contrasts, contrast_of, frame_gain, hand_pixels, skin_mask
 from .decode import MIN_FRAMES, Progress, VideoFile, check_frame_count, check_video_file, frame_times, spread_indices
-from .detect import (QUALITY_BLURRED, QUALITY_DUPLICATE, QUALITY_LOST, QUALITY_OCCLUDED, QUALITY_OK, QUALITY_PARTIAL,
-                     find_ball, find_blobs, measure_ball)
+from .detect import find_ball, find_blobs, measure_ball
 from .opencv import cv2
+# the flags and the centre's correlation, kept importable from here (overlay, tests)
+from .quality import (CLEAN_QUALITIES, QUALITY_BLURRED, QUALITY_DUPLICATE, QUALITY_LOST, QUALITY_OCCLUDED,  # noqa: F401
+                      QUALITY_OK, QUALITY_PARTIAL, TRACKED_CENTRE_CORRELATION)
 
-#: Frames measured cleanly: a lone ball whose centre is its coverage-weighted centroid.
-CLEAN_QUALITIES = (QUALITY_OK, QUALITY_BLURRED)
 COLUMNS = ["frame", "time_s", "x_px", "y_px", "radius_px", "quality", "centre_se_px", "fit_rms_px"]
-#: Lag-1 autocorrelation of the tracked centre's errors between successive frames (dimensionless): the
-#: pixel grid and the codec's 8 × 8 blocks bias neighbouring frames alike. Measured against the
-#: renderer's truth on seeded synthetic clips (120 and 240 fps, ball radius 5–12 px, noise σ 2, MJPEG
-#: quality 90): 0.08–0.24 per clip, about 0.17 on average (tests/test_tracking.py). Taken as 0.2: with
-#: independent errors assumed, the intervals of 200 small clips covered the truth only ~90 %.
-TRACKED_CENTRE_CORRELATION = 0.2
 
 #: Mean absolute grey-level difference to the previous frame at or below which a frame is a duplicate.
 DUPLICATE_TOLERANCE_GREY = 0.5
