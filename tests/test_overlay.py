@@ -140,7 +140,7 @@ def test_a_clip_refused_while_measured_keeps_its_tracked_table(drop, tmp_path, m
     """A refusal in measure (here by the recording-wide limits, stood in for) leaves the tracked table, whole,
     beside the trajectory's failure record."""
     video = render_drop_clip(tmp_path / "clip.avi", drop, fps=120.0).attrs["video_path"]
-    reason = f"{video}: not analysable: frames measured cleanly: 20% < 30%"
+    reason = f"{video}: not analysable: frames measured cleanly: 20% < 45%"
 
     def refuse(table, source):
         raise InputError(reason)

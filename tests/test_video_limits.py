@@ -150,7 +150,7 @@ def test_a_ball_tracked_smaller_than_the_limit_is_refused(tmp_path, monkeypatch,
 
 def test_a_recording_with_too_few_clean_frames_is_refused(tmp_path, monkeypatch, drop):
     message = refusal_of(tmp_path, monkeypatch, tracked_table(drop, fps=120.0, clean_every=5))
-    assert message.startswith(f"{tmp_path / 'clip.avi'}: not analysable: frames measured cleanly: 20% < 30% "
+    assert message.startswith(f"{tmp_path / 'clip.avi'}: not analysable: frames measured cleanly: 20% < 45% "
                               f"(the ball not found in 80% of the frames)")
     assert "--ball-at-px" in message and "--roi-px" in message and "--ball-colour" in message
     assert "\n" not in message

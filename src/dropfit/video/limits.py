@@ -41,10 +41,11 @@ from .quality import CLEAN_QUALITIES, QUALITY_DUPLICATE, QUALITY_LOST, QUALITY_O
 #: 1.25 px in no clean frame; drawn with 1.5–2 px it is tracked as 2.2–2.3 px (the edge threshold
 #: widens it) and e is still right. No ball was tracked smaller, so a smaller blob is not a ball.
 MIN_BALL_RADIUS_PX = 2.0
-#: Smallest fraction of the frames from the first clean one to the last that are clean. Sweep: e
-#: right with 34 % clean (ball radius 1.5 px) and 46 % (noise σ = 25 grey levels); at σ ≥ 27.5 at
-#: most 3 % of the frames are clean, or fewer than 10 in all.
-MIN_CLEAN_FRACTION = 0.30
+#: Smallest fraction of the frames from the first clean one to the last that are clean. Sweep (the colour
+#: tracker, 2026-11-23): e right wherever 49 % or more were clean (noise σ = 30 grey levels: 49–61 %); a
+#: ball drawn with radius 1–1.5 px, tracked in 30–41 % of the frames, gave e₁ 7 standard errors off
+#: once (38 %) and 2.4 once (33 %). The sweep's table was run with the earlier limit of 30 %.
+MIN_CLEAN_FRACTION = 0.45
 #: Fewest frame intervals a flight around an impact must last (the drop: from its apex, the release,
 #: to touchdown; a bounce: from lift-off to touchdown). Sweep (blurred frames measured): a fall of 6.1
 #: frame intervals (15 frames/s) gave e₁ off by 3 × 10⁻³ (18 standard errors); falls of 7.8–12.5
