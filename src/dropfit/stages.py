@@ -425,10 +425,6 @@ def run_batch(sheet_path, results_dir, config=None, sample_ids=None, say=print):
     if unknown:
         raise InputError(f"{shown_path(sheet_path)}: no row with sample_id {', '.join(map(shown, unknown[:5]))}; "
                          f"give sample ids of the sheet")
-    if not sheet.index.is_unique:
-        duplicated = sorted(set(sheet.index[sheet.index.duplicated()]))
-        raise InputError(f"{shown_path(sheet_path)}: sample_id {', '.join(map(shown, duplicated[:5]))} is given "
-                         f"more than once; give each recording its own sample_id")
     failed = {}
     for sample_id in sample_ids:
         row = sheet.loc[sample_id]
