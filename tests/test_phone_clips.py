@@ -42,7 +42,9 @@ def _check(result, truth, impacts_checked):
     table = _compare(result, truth, impacts_checked)
     assert len(table) == impacts_checked, result.impacts
     assert np.all(np.abs(table["e"] - table["e_true"]) <= E_TOLERANCE), table
-    assert np.all((table["e_low"] <= table["e_true"]) & (table["e_true"] <= table["e_high"])), table
+    inside = (table["e_low"] <= table["e_true"]) & (table["e_true"] <= table["e_high"])
+    # 95 % intervals: of five or more impacts one may miss (2 or more miss with probability 3 % for six)
+    assert (~inside).sum() <= (1 if len(table) >= 5 else 0), table
     assert np.all(np.abs(table["h"] - table["h_true"]) <= HEIGHT_TOLERANCE_M), table
     return table
 
