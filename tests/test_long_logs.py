@@ -65,3 +65,13 @@ def test_a_log_sampled_at_tens_of_kilohertz_finds_its_drop(tmp_path, seed):
     first = result.impacts.iloc[0]
     assert first["t_touchdown_s"] == pytest.approx(0.1 + np.sqrt(2 * drop_m / 9.81), abs=0.002)
     assert first["e"] == pytest.approx(e, abs=0.01)
+
+
+def test_a_short_burst_at_tens_of_kilohertz_is_refused_in_one_line(tmp_path):
+    """A high-speed clip's few frames (15 samples at 30 kHz, a fall without bounce) are too few to block-average:
+    the dip search runs on them whole and the recording is refused as having no bounce, not with a NaN error."""
+    time = np.arange(15) / 30000.0
+    log = tmp_path / "burst.csv"
+    log.write_text("time_s,y_m\n" + "".join(f"{t:.8f},{1.0 - 3.0 * t - 4.905 * t * t:.8f}\n" for t in time))
+    with pytest.raises(dropfit.InputError, match=r"burst.csv: (no bounce found|the ball never falls)"):
+        dropfit.analyse_recording(log, ball_radius_m=0.02, ball_mass_kg=0.057, gravity_m_s2=9.81)

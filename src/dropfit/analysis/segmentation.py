@@ -323,7 +323,8 @@ def impact_dips(t, y, noise):
     """
     interval = float(np.median(np.diff(t)))
     block = int(1.0 / (interval * MAX_DIP_SEARCH_RATE_HZ))
-    if block < 2:
+    # a short burst (a high-speed clip's 15 frames in 0.5 ms) has too few blocks to average: search it whole
+    if block < 2 or y.size // block < 3 * MIN_SAMPLES_PER_FLIGHT:
         # lags up to ~10 ms: dense sampling through a contact that lasts a few milliseconds
         dips = find_impacts(y, noise, max_lag=max(3, int(round(0.01 / interval))))
         return dips[first_impact(t, y, dips):] if dips.size else dips
