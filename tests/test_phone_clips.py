@@ -70,9 +70,10 @@ YELLOW_NEAR_FLOOR = ("tracked in colour, the 7.5 px yellow ball (its colour stor
 
 
 @pytest.mark.parametrize("preset, options, impacts_checked", [
+    # each clip is rendered and analysed end to end (1-2.5 min): slow tests, run in CI
     pytest.param("yellow_flicker_portrait_120", {"ruler_tick_m": 0.01}, 2,
-                 marks=pytest.mark.xfail(strict=True, reason=YELLOW_NEAR_FLOOR)),
-    ("tennis_aruco_tilted", {"marker_size_m": 0.08}, 3),
+                 marks=[pytest.mark.slow, pytest.mark.xfail(strict=True, reason=YELLOW_NEAR_FLOOR)]),
+    pytest.param("tennis_aruco_tilted", {"marker_size_m": 0.08}, 3, marks=pytest.mark.slow),
     # 30 frames/s, scale from gravity (the board has none; the tape's cm ticks are not resolved at half size)
     pytest.param("green_board_avi", {}, 4, marks=pytest.mark.slow),
     pytest.param("yellow_green_tape", {}, 4, marks=pytest.mark.slow),
