@@ -76,7 +76,9 @@ def _configure_library_logging():
 
 _configure_library_logging()
 
-#: Decoded frames the decoding thread may hold ahead of the tracker.
+#: Decoded frames the decoding thread may hold ahead of the tracker: this many bytes of them, at least
+#: DECODE_AHEAD_FRAMES (a 1280 × 720 clip's 0.2-0.3 s of decoding, as long as reading its scene takes).
+DECODE_AHEAD_BYTES = 256 * 2**20
 DECODE_AHEAD_FRAMES = 16
 #: Clips with at least this many frames show their progress (shorter ones take a second or two).
 PROGRESS_MIN_FRAMES = 500
@@ -85,6 +87,20 @@ PROGRESS_INTERVAL_S = 0.25
 
 #: cv2.rotate code that turns a coded frame into the displayed one, by counter-clockwise rotation in degrees.
 _ROTATE_CODES = {90: cv2.ROTATE_90_COUNTERCLOCKWISE, 180: cv2.ROTATE_180, 270: cv2.ROTATE_90_CLOCKWISE}
+
+
+def bgr_image(frame):
+    """A decoded frame (av.VideoFrame) as BGR uint8, as coded (no rotation).
+
+    Limited-range 4:2:0 frames (H.264 and HEVC as phones write them) are converted by OpenCV: the
+    same ITU-R BT.601 coefficients as FFmpeg's scaler, each 2 × 2 block's stored colour repeated over
+    its pixels (the scaler interpolates it), in SIMD code on every core and about 1.7 times faster
+    (``benchmarks/tracking_speed.py``); other formats by FFmpeg's scaler.
+    """
+    limited_range = frame.color_range in (0, 1)  # unspecified or MPEG (16-235), not JPEG's full range
+    if frame.format.name == "yuv420p" and limited_range and frame.width % 2 == 0 and frame.height % 2 == 0:
+        return cv2.cvtColor(frame.to_ndarray(), cv2.COLOR_YUV2BGR_I420)
+    return frame.to_ndarray(format="bgr24")
 
 
 @dataclass(frozen=True)
@@ -199,8 +215,8 @@ class VideoFile:
         return float((frame.pts - self._start_pts) * frame.time_base)
 
     def image(self, frame):
-        """The frame as the phone shows it: BGR uint8, rotation applied."""
-        image = frame.to_ndarray(format="bgr24")
+        """The frame as the phone shows it: BGR uint8 (:func:`bgr_image`), rotation applied."""
+        image = bgr_image(frame)
         code = _ROTATE_CODES.get(self.info.rotation_deg)
         return image if code is None else cv2.rotate(image, code)
 
@@ -252,7 +268,7 @@ class VideoFile:
                              backward=True)
 
     def frames(self, progress=None):
-        """Every frame once, in order, decoded in a second thread: (index, time s, BGR image) triples.
+        """Every frame once, in order, decoded in a second thread from now on: a :class:`DecodedFrames`.
 
         Parameters
         ----------
@@ -260,46 +276,83 @@ class VideoFile:
             Told of each frame handed out, and finished at the end.
         """
         self._rewind()
-        handoff = queue.Queue(maxsize=DECODE_AHEAD_FRAMES)
-        halt = threading.Event()
-        end = object()
-
-        def decode():
-            try:
-                for frame in self._decoded():
-                    item = (self.time_s(frame), self.image(frame))
-                    while not halt.is_set():
-                        try:
-                            handoff.put(item, timeout=0.1)
-                            break
-                        except queue.Full:
-                            continue
-                    if halt.is_set():
-                        return
-            finally:
-                handoff.put(end)
-
-        thread = threading.Thread(target=decode, daemon=True, name=f"decode {self.path.name}")
-        thread.start()
-        index = 0
-        try:
-            while (item := handoff.get()) is not end:
-                yield (index, *item)
-                index += 1
-                if progress is not None:
-                    progress.update(index)
-        finally:
-            halt.set()
-            while thread.is_alive():
-                with contextlib.suppress(queue.Empty):
-                    handoff.get(timeout=0.1)
-            if progress is not None:
-                progress.finish(index)
+        frames = ((self.time_s(frame), self.image(frame)) for frame in self._decoded())
+        return DecodedFrames(frames, self.info.width * self.info.height * 3, f"decode {self.path.name}", progress)
 
     def frame(self, index):
         """The displayed BGR frame ``index`` (decoding from the start), or None past the end."""
         self._rewind()
         return next((self.image(frame) for position, frame in enumerate(self._decoded()) if position == index), None)
+
+
+class DecodedFrames:
+    """Frames decoded in a second thread ahead of the caller (:meth:`VideoFile.frames`).
+
+    Decoding starts when the object is made, so that what the caller does before it takes the
+    first frame (reading the scene from the background samples) overlaps it; the thread holds up
+    to ``DECODE_AHEAD_BYTES`` of frames (at least ``DECODE_AHEAD_FRAMES``). Iterate once for
+    (index, time s, BGR image) triples; leaving the iteration early, or :meth:`close` (also at the
+    end of a ``with`` block), stops the thread.
+
+    Parameters
+    ----------
+    frames : iterator of (float, numpy.ndarray)
+        Time (s) and image of each frame, decoded as it is taken (in the second thread only).
+    frame_bytes : int
+        Bytes of one image.
+    name : str
+        The thread's name.
+    progress : Progress, optional
+        Told of each frame handed out, and finished at the end.
+    """
+
+    def __init__(self, frames, frame_bytes, name, progress=None):
+        self._frames, self._progress = frames, progress
+        self._handoff = queue.Queue(maxsize=max(DECODE_AHEAD_FRAMES, DECODE_AHEAD_BYTES // max(frame_bytes, 1)))
+        self._halt = threading.Event()
+        self._end = object()
+        self._thread = threading.Thread(target=self._decode, daemon=True, name=name)
+        self._thread.start()
+
+    def _decode(self):
+        try:
+            for item in self._frames:
+                while not self._halt.is_set():
+                    try:
+                        self._handoff.put(item, timeout=0.1)
+                        break
+                    except queue.Full:
+                        continue
+                if self._halt.is_set():
+                    return
+        finally:
+            self._handoff.put(self._end)
+
+    def __iter__(self):
+        index = 0
+        try:
+            while (item := self._handoff.get()) is not self._end:
+                yield (index, *item)
+                index += 1
+                if self._progress is not None:
+                    self._progress.update(index)
+        finally:
+            self.close()
+            if self._progress is not None:
+                self._progress.finish(index)
+
+    def close(self):
+        """Stop decoding (frames not taken are dropped)."""
+        self._halt.set()
+        while self._thread.is_alive():
+            with contextlib.suppress(queue.Empty):
+                self._handoff.get(timeout=0.1)
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
 
 
 class Progress:
