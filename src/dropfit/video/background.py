@@ -73,6 +73,28 @@ class Background:
         """The scene as a frame: the colour one where there is one, else the grey levels as uint8."""
         return self.colour if self.colour is not None else np.clip(np.rint(self.grey), 0, 255).astype(np.uint8)
 
+    def derived(self, key, compute):
+        """``compute()``, made once per background and kept with it under ``key``: what the tracker derives
+        from the scene (its colour's unit vectors, a reduced copy) for every frame of a clip."""
+        kept = self.__dict__.setdefault("_derived", {})
+        if key not in kept:
+            kept[key] = compute()
+        return kept[key]
+
+    def shrunk(self, factor):
+        """The background reduced ``factor`` times in each direction (pixel areas averaged), made once."""
+        def shrink():
+            height, width = self.grey.shape[0] // factor, self.grey.shape[1] // factor
+
+            def reduce(image):
+                return cv2.resize(image[:height * factor, :width * factor], (width, height),
+                                  interpolation=cv2.INTER_AREA)
+
+            colour = None if self.colour is None else reduce(self.colour)
+            return Background(reduce(self.grey), self.noise_grey, self.threshold_grey, colour)
+
+        return self if factor == 1 else self.derived(("shrunk", factor), shrink)
+
 
 def to_grey(image):
     """Grey levels of an image as float32.

@@ -31,6 +31,7 @@ before the colour channels are formed.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
@@ -57,6 +58,34 @@ MIN_BALL_CHROMA_FRACTION = 0.25
 SHADE_NEIGHBOURHOOD = np.ones((3, 3), np.uint8)
 #: Background colour vectors shorter than this (grey levels) have no direction to measure along.
 MIN_BACKGROUND_LENGTH = 10.0
+#: Sums the three channels of a pixel (:func:`channel_dot`).
+_CHANNEL_SUM = np.ones((1, 3), np.float32)
+
+
+def channel_dot(a, b):
+    """Pixel by pixel, the dot product of two BGR images (last axis of three): Σ a_c · b_c, float32.
+
+    Done by OpenCV (multiply, then a channel transform): NumPy's sum over a trailing axis of three is
+    ten to twenty times slower, and these products are most of what the colour channels cost.
+
+    Parameters
+    ----------
+    a, b : numpy.ndarray
+        Arrays of shape (..., 3); ``b`` broadcast to ``a``'s shape.
+
+    Returns
+    -------
+    numpy.ndarray
+        float32, ``a``'s shape without its last axis.
+    """
+    a = np.ascontiguousarray(a, dtype=np.float32)
+    if a.size == 0:
+        return np.zeros(a.shape[:-1], np.float32)
+    if np.ndim(b) == 1:  # one colour for every pixel: a channel transform alone
+        return cv2.transform(a.reshape(-1, 1, 3), np.asarray(b, np.float32).reshape(1, 3)).reshape(a.shape[:-1])
+    b = np.ascontiguousarray(np.broadcast_to(b, a.shape), dtype=np.float32)
+    product = cv2.multiply(a.reshape(-1, 1, 3), b.reshape(-1, 1, 3))
+    return cv2.transform(product, _CHANNEL_SUM).reshape(a.shape[:-1])
 
 
 @dataclass(frozen=True)
@@ -120,6 +149,8 @@ class Contrast:
         taken out: its pixels are given the background's value. Parameters as :meth:`image`;
         ``background_colour`` may be given for ``grey`` too (then a hand is taken out of it as well).
         """
+        if background_colour is not None and self.in_colour:
+            background_colour = SceneColour.of(background_colour)  # derived once for the channel and the hand
         if self.name == GREY:
             image, background = to_grey(frame), np.asarray(background_grey, np.float32)
         elif self.name == BRIGHTER:
@@ -134,10 +165,70 @@ class Contrast:
         return image, background
 
 
-def _unit_background(background_colour):
-    background = background_colour.astype(np.float32)
-    length = np.sqrt((background * background).sum(axis=-1))
-    return background, background / np.maximum(length, MIN_BACKGROUND_LENGTH)[..., None]
+@dataclass(frozen=True)
+class SceneColour:
+    """A background's colour with what the colour channels derive from it, pixel by pixel.
+
+    Made once per background (:meth:`of`) and cut to a window (:meth:`window`) for each frame, so that
+    the tracker does not derive them again from the same scene for every frame. Every function of
+    this module that takes a background colour takes one of these or a BGR uint8 array.
+
+    Attributes
+    ----------
+    bgr : numpy.ndarray
+        The colour, uint8 (height, width, 3).
+    vector : numpy.ndarray
+        The colour as float32 vectors B, grey levels.
+    length : numpy.ndarray
+        |B|, float32 (height, width).
+    unit : numpy.ndarray
+        B / max(|B|, ``MIN_BACKGROUND_LENGTH``), float32 (height, width, 3).
+    unit_power : numpy.ndarray
+        |unit|², float32 (height, width): 1 but where |B| < ``MIN_BACKGROUND_LENGTH``.
+    skin : numpy.ndarray
+        Which pixels are skin-coloured (:func:`skin_mask`), bool (height, width).
+    """
+
+    bgr: np.ndarray
+    vector: np.ndarray
+    length: np.ndarray
+    unit: np.ndarray
+    unit_power: np.ndarray
+    skin: np.ndarray
+
+    @classmethod
+    def of(cls, background_colour):
+        """The scene colour of a BGR uint8 array (returned as it is when it is one already)."""
+        if isinstance(background_colour, cls):
+            return background_colour
+        vector = background_colour.astype(np.float32)
+        length = np.sqrt(channel_dot(vector, vector))
+        unit = vector / np.maximum(length, MIN_BACKGROUND_LENGTH)[..., None]
+        return cls(background_colour, vector, length, unit, channel_dot(unit, unit), skin_mask(background_colour))
+
+    def window(self, left, top, right, bottom):
+        """The part of columns ``left ≤ x < right``, rows ``top ≤ y < bottom`` (px), as views."""
+        return SceneColour(*(array[top:bottom, left:right] for array in
+                             (self.bgr, self.vector, self.length, self.unit, self.unit_power, self.skin)))
+
+    def at(self, rows, columns):
+        """The scene at the pixels (``rows``, ``columns``): arrays of one entry per pixel."""
+        return SceneColour(*(array[rows, columns] for array in
+                             (self.bgr, self.vector, self.length, self.unit, self.unit_power, self.skin)))
+
+    @cached_property
+    def gain_reference(self):
+        """:func:`frame_gain`'s sparse samples of the scene, made once: (which samples are lit, their colour
+        vectors B and B · B)."""
+        return _gain_reference(self.bgr)
+
+
+def scene_colour(background):
+    """The :class:`SceneColour` of a :class:`dropfit.video.background.Background`, made once and kept with
+    it; None for a grey background."""
+    if background.colour is None:
+        return None
+    return background.derived("scene colour", lambda: SceneColour.of(background.colour))
 
 
 def _brightness_and_shade(frame, background_colour, gain):
@@ -150,18 +241,25 @@ def _brightness_and_shade(frame, background_colour, gain):
     background is the shadowed wall next to it, so each pixel is measured against the darkest shade
     of its 3 × 3 neighbourhood; away from shadows that shade is 1.
     """
-    background, unit = _unit_background(background_colour)
-    length = np.sqrt((background * background).sum(axis=-1))
-    brightness = (frame.astype(np.float32) * np.float32(1.0 / gain) * unit).sum(axis=-1)
+    scene = SceneColour.of(background_colour)
+    length = scene.length
+    brightness = channel_dot(frame.astype(np.float32) * np.float32(1.0 / gain), scene.unit)
     shade = np.clip(brightness / np.maximum(length, MIN_BACKGROUND_LENGTH), 0.0, 1.0)
     return brightness, cv2.erode(shade, SHADE_NEIGHBOURHOOD) * length
 
 
-def _across(vectors, unit):
-    """The length of BGR ``vectors`` across the unit background colours ``unit`` (pixel by pixel)."""
-    along = (vectors * unit).sum(axis=-1)
-    across = vectors - along[..., None] * unit
-    return np.sqrt((across * across).sum(axis=-1))
+def _across(vectors, scene):
+    """The length of BGR ``vectors`` (one per pixel, or one for all) across the scene's unit colours (pixel by
+    pixel), float32.
+
+    With ``a = v · u``, the part across is ``v - a u``, of squared length ``|v|² - a² (2 - |u|²)``
+    (``|u|`` is 1 but on the darkest pixels): no vector of it need be formed.
+    """
+    if vectors.ndim == 1:  # one colour against every pixel's
+        along, power = channel_dot(scene.unit, vectors), float(vectors @ vectors)
+    else:
+        along, power = channel_dot(vectors, scene.unit), channel_dot(vectors, vectors)
+    return np.sqrt(np.maximum(power - along * along * (2.0 - scene.unit_power), 0.0))
 
 
 def chroma_contrast(frame, background_colour, gain=1.0, ball_bgr=None):
@@ -172,11 +270,11 @@ def chroma_contrast(frame, background_colour, gain=1.0, ball_bgr=None):
     by that median: a fully covered pixel reads the same wherever the ball is, in grey levels of the
     window's typical contrast.
     """
-    background, unit = _unit_background(background_colour)
-    image = _across(frame.astype(np.float32) * np.float32(1.0 / gain) - background, unit)
+    scene = SceneColour.of(background_colour)
+    image = _across(frame.astype(np.float32) * np.float32(1.0 / gain) - scene.vector, scene)
     if ball_bgr is None:
         return image
-    full = _across(np.broadcast_to(np.asarray(ball_bgr, np.float32), background.shape), unit)
+    full = _across(np.asarray(ball_bgr, np.float32), scene)
     typical = float(np.median(full))
     if typical <= 0.0:
         return image
@@ -216,15 +314,22 @@ def skin_mask(frame):
 def _ball_blend(frame, background_colour, ball_bgr):
     """Which pixels are a blend of the ball's colour and the background's (its rim, its blur): the
     frame's colour lies on the segment from the background's to the ball's, within
-    ``BLEND_TOLERANCE`` of the segment's length (and ``MIN_BLEND_TOLERANCE`` grey levels)."""
-    background = background_colour.astype(np.float32)
-    span = np.asarray(ball_bgr, np.float32)[None, None, :] - background
-    length2 = np.maximum((span * span).sum(axis=-1), 1.0)
-    offset = frame.astype(np.float32) - background
-    share = (offset * span).sum(axis=-1) / length2
-    off_line = offset - share[..., None] * span
+    ``BLEND_TOLERANCE`` of the segment's length (and ``MIN_BLEND_TOLERANCE`` grey levels).
+
+    With ``o`` the frame's colour less the background's, ``s`` the ball's less the background's and
+    ``d = o · s``, the share along the segment is ``d / |s|²`` and the distance off it squared
+    ``|o|² - 2 share d + share² |s|²``."""
+    scene = SceneColour.of(background_colour)
+    ball = np.asarray(ball_bgr, np.float32)
+    ball_along = channel_dot(scene.vector, ball)
+    span2 = float(ball @ ball) - 2.0 * ball_along + scene.length * scene.length
+    length2 = np.maximum(span2, 1.0)
+    offset = frame.astype(np.float32) - scene.vector
+    along = channel_dot(offset, ball) - channel_dot(offset, scene.vector)
+    share = along / length2
+    off_line2 = channel_dot(offset, offset) - 2.0 * share * along + share * share * span2
     tolerance = np.maximum(BLEND_TOLERANCE * np.sqrt(length2), MIN_BLEND_TOLERANCE)
-    return (share >= -0.05) & (share <= 1.05) & (np.sqrt((off_line * off_line).sum(axis=-1)) <= tolerance)
+    return (share >= -0.05) & (share <= 1.05) & (off_line2 <= tolerance * tolerance)
 
 
 def hand_pixels(frame, background_colour, ball_bgr=None, min_area_px=0.0):
@@ -245,10 +350,16 @@ def hand_pixels(frame, background_colour, ball_bgr=None, min_area_px=0.0):
     hand = skin_mask(frame)
     if not hand.any():  # most windows: nothing skin-coloured, nothing more to compute
         return hand
-    # skin-coloured where the background is not, and not the background in shade (a shadow keeps its hue)
-    hand &= ~skin_mask(background_colour) & (chroma_contrast(frame, background_colour) > HAND_MIN_CHROMA)
+    # skin-coloured where the background is not (a wooden floor is), and not the background in shade (a
+    # shadow keeps its hue): judged at the few pixels left only
+    scene = SceneColour.of(background_colour)
+    hand &= ~scene.skin
+    rows, columns = np.nonzero(hand)
+    pixels, at = frame[rows, columns], scene.at(rows, columns)
+    keep = chroma_contrast(pixels, at) > HAND_MIN_CHROMA
     if ball_bgr is not None:  # a red ball blurred over a white wall is pink: its blend, not a hand
-        hand &= ~_ball_blend(frame, background_colour, ball_bgr)
+        keep &= ~_ball_blend(pixels, at, ball_bgr)
+    hand[rows[~keep], columns[~keep]] = False
     hand = hand.astype(np.uint8)
     # a ball's anti-aliased rim blends its colour with the wall's into skin-like tones, a ring at most
     # two pixels wide; a hand is broader
@@ -282,7 +393,7 @@ def frame_gain(frame, background_colour):
     ----------
     frame : numpy.ndarray
         BGR uint8 frame.
-    background_colour : numpy.ndarray
+    background_colour : numpy.ndarray or SceneColour
         The background's BGR uint8.
 
     Returns
@@ -290,14 +401,21 @@ def frame_gain(frame, background_colour):
     float
         The gain (1.0 when the background is too dark to tell).
     """
-    s = SAMPLE_STRIDE_PX
-    sample = frame[::s, ::s].reshape(-1, 3).astype(np.float32)
-    background = background_colour[::s, ::s].reshape(-1, 3).astype(np.float32)
-    power = (background * background).sum(axis=1)
-    lit = power > MIN_BACKGROUND_LENGTH ** 2
-    if lit.sum() < 10:
+    lit, background, power = (background_colour.gain_reference if isinstance(background_colour, SceneColour)
+                              else _gain_reference(background_colour))
+    if background.shape[0] < 10:
         return 1.0
-    return float(np.median((sample[lit] * background[lit]).sum(axis=1) / power[lit]))
+    s = SAMPLE_STRIDE_PX
+    sample = frame[::s, ::s].reshape(-1, 3)[lit]
+    return float(np.median(channel_dot(sample, background) / power))
+
+
+def _gain_reference(background_colour):
+    s = SAMPLE_STRIDE_PX
+    background = background_colour[::s, ::s].reshape(-1, 3).astype(np.float32)
+    power = channel_dot(background, background)
+    lit = power > MIN_BACKGROUND_LENGTH ** 2
+    return lit, background[lit], power[lit]
 
 
 def contrast_of(name, samples, background):
@@ -327,7 +445,7 @@ def contrast_of(name, samples, background):
     values = []
     channel = Contrast(name, 0.0, 0.0)
     for sample in samples:
-        image = channel.image(sample[::s, ::s], None, colour, frame_gain(sample, background.colour))
+        image = channel.image(sample[::s, ::s], None, colour, frame_gain(sample, scene_colour(background)))
         values.append(image.ravel())
     values = np.concatenate(values)
     if name == CHROMA:
@@ -341,5 +459,6 @@ def available_contrasts(background):
     return CHANNELS if background.colour is not None else (GREY,)
 
 
-__all__ = ["BRIGHTER", "CHANNELS", "CHROMA", "GREY", "Contrast", "available_contrasts", "chroma_contrast",
-           "chromaticity", "contrast_of", "frame_gain", "hand_pixels", "skin_mask"]
+__all__ = ["BRIGHTER", "CHANNELS", "CHROMA", "GREY", "Contrast", "SceneColour", "available_contrasts",
+           "channel_dot", "chroma_contrast", "chromaticity", "contrast_of", "frame_gain", "hand_pixels", "scene_colour",
+           "skin_mask"]

@@ -58,7 +58,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..numerics import least_squares_covariance, robust_sigma
-from .contrast import chromaticity
+from .contrast import chromaticity, scene_colour
 from .opencv import cv2
 # the flags documented above, kept importable from here; defined apart so that reading a tracked
 # table does not load OpenCV
@@ -110,6 +110,9 @@ OCCLUDED_AREA_FRACTION = 0.9
 
 #: Half-length of the rays along which an outline point is placed where the coverage crosses ½, px.
 EDGE_RAY_HALF_LENGTH_PX = 3.0
+#: The ball is measured on its blob's box and this margin each way, px: more than the dilations about the
+#: blob (3 px), a neighbour's dilation (2 px) and the edge rays (EDGE_RAY_HALF_LENGTH_PX) reach.
+BLOB_MARGIN_PX = 8
 
 #: Outline points farther from the fitted circle than this many robust residual standard
 #: deviations (and than EDGE_OUTLIER_MIN_PX) are dropped before the final fit.
@@ -373,13 +376,25 @@ def measure_ball(grey, background, threshold_grey, centre_guess, radius_ref_px=N
         distance = np.hypot(centroids[candidates, 0] - gx, centroids[candidates, 1] - gy)
         label = int(candidates[np.argmin(distance)])
 
-    blob = (labels == label).astype(np.uint8)
-    filled, _ = _fill_largest(blob)
-    left, top, right, bottom = image_edges
     x0, y0, w, h = stats[label, :4]
     touches = (x0 == 0, y0 == 0, x0 + w == width, y0 + h == height)
     at_image_edge = any(t and e for t, e in zip(touches, image_edges))
     truncated = any(t and not e for t, e in zip(touches, image_edges))
+    # what follows reads only the blob and a few pixels about it: work on its box and that margin
+    # (a window searched for a fast ball is many times the ball's size)
+    left_px, top_px = max(x0 - BLOB_MARGIN_PX, 0), max(y0 - BLOB_MARGIN_PX, 0)
+    right_px, bottom_px = min(x0 + w + BLOB_MARGIN_PX, width), min(y0 + h + BLOB_MARGIN_PX, height)
+    box = (slice(top_px, bottom_px), slice(left_px, right_px))
+    window_width, window_height = width, height
+    grey, background, diff, foreground, labels = grey[box], background[box], diff[box], foreground[box], labels[box]
+    height, width = grey.shape
+    # the window's edges that are the image's, where they bound the box
+    left, top, right, bottom = (image_edges[0] and left_px == 0, image_edges[1] and top_px == 0,
+                                image_edges[2] and right_px == window_width,
+                                image_edges[3] and bottom_px == window_height)
+
+    blob = (labels == label).astype(np.uint8)
+    filled, _ = _fill_largest(blob)
 
     # A lone disc (even motion-blurred) is round and fills the ellipse of its second moments; a
     # ball with a hand attached is elongated or not convex. Moments ignore a stray pixel.
@@ -450,9 +465,11 @@ def measure_ball(grey, background, threshold_grey, centre_guess, radius_ref_px=N
         refined = _fit_outline(np.clip(coverage, -1.0, 2.0), outline[near], (cx, cy), r, radius_ref_px)
         if refined is not None:
             cx, cy, r, centre_se, fit_rms = refined
+        cx, cy = cx + left_px, cy + top_px
         # partial: the ball itself (not a hand reaching in from the border) crosses an image edge
+        left, top, right, bottom = image_edges
         crosses = (left and cx - r < -0.5, top and cy - r < -0.5,
-                   right and cx + r > width - 0.5, bottom and cy + r > height - 0.5)
+                   right and cx + r > window_width - 0.5, bottom and cy + r > window_height - 0.5)
         quality = QUALITY_PARTIAL if (any(crosses) or not attached) else QUALITY_OCCLUDED
         return BallMeasurement(float(cx), float(cy), float(r), quality, truncated and not attached,
                                centre_se, fit_rms)
@@ -465,8 +482,8 @@ def measure_ball(grey, background, threshold_grey, centre_guess, radius_ref_px=N
     area = float(weight.sum())
     if area <= math.pi * MIN_RADIUS_PX ** 2:
         return None
-    x = float(weight.sum(axis=0) @ np.arange(width, dtype=np.float32)) / area
-    y = float(weight.sum(axis=1) @ np.arange(height, dtype=np.float32)) / area
+    x = float(weight.sum(axis=0) @ np.arange(width, dtype=np.float32)) / area + left_px
+    y = float(weight.sum(axis=1) @ np.arange(height, dtype=np.float32)) / area + top_px
     if streak:
         # no pixel is covered for the whole exposure, so the sum of coverage is not the ball's area
         return BallMeasurement(x, y, radius_ref_px, QUALITY_BLURRED, truncated)
@@ -513,18 +530,11 @@ def find_blobs(frame, background, contrast, expected_radius_px=None, gain=1.0):
         scale = int(np.clip(expected_radius_px // 4, 1, 4))
     else:
         scale = 2
-    colour = background.colour
     if scale > 1:
         size = (frame.shape[1] // scale, frame.shape[0] // scale)
-
-        def shrink(image):
-            return cv2.resize(image[: size[1] * scale, : size[0] * scale], size, interpolation=cv2.INTER_AREA)
-
-        frame, background_grey = shrink(frame), shrink(background.grey)
-        colour = shrink(colour) if colour is not None else None
-    else:
-        background_grey = background.grey
-    signal = contrast.image(frame, background_grey, colour, gain)
+        frame = cv2.resize(frame[: size[1] * scale, : size[0] * scale], size, interpolation=cv2.INTER_AREA)
+        background = background.shrunk(scale)
+    signal = contrast.image(frame, background.grey, scene_colour(background), gain)
     mask = (np.abs(signal) > contrast.threshold).astype(np.uint8)
     count, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
     min_area = max(2.0, math.pi * (MIN_RADIUS_PX / scale) ** 2)

@@ -46,7 +46,8 @@ from ..errors import InputError, shown_path
 from ..files import check_input_file
 from .background import (BACKGROUND_SAMPLES, Background, background_without_ball, estimate_background, grey_uint8,
                          to_grey)
-from .contrast import CHANNELS, CHROMA, GREY, Contrast, available_contrasts, contrast_of, frame_gain, hand_pixels, skin_mask
+from .contrast import (CHANNELS, CHROMA, GREY, Contrast, available_contrasts, contrast_of, frame_gain, hand_pixels,
+                       scene_colour, skin_mask)
 from .decode import MIN_FRAMES, Progress, VideoFile, check_frame_count, check_video_file, frame_times, spread_indices
 from .detect import find_ball, find_blobs, measure_ball
 from .opencv import cv2
@@ -143,6 +144,7 @@ class BallTracker:
         self.hints = hints or TrackerHints()
         self._gain = 1.0
         self._ball_colours = []  # BGR at the centre of recently measured balls, the frame's gain divided out
+        self._ball_bgr = None
         height, width = background.grey.shape
         self.left, self.top, self.right, self.bottom = 0, 0, width, height  # the region searched, px
         if self.hints.roi_px is not None:
@@ -161,7 +163,7 @@ class BallTracker:
     def ball_bgr(self):
         """The ball's colour, BGR levels: the median at the centre of the balls recently measured whose
         centre is not skin-coloured (None before)."""
-        return tuple(np.median(self._ball_colours, axis=0)) if self._ball_colours else None
+        return self._ball_bgr
 
     @property
     def radius_ref_px(self):
@@ -199,7 +201,8 @@ class BallTracker:
         y1 = min(int(math.ceil(y_c + half_size)) + 1, self.bottom)
         if x1 - x0 < 3 or y1 - y0 < 3:
             return None
-        colour = self.background.colour[y0:y1, x0:x1] if self.background.colour is not None else None
+        scene = scene_colour(self.background)
+        colour = scene.window(x0, y0, x1, y1) if scene is not None else None
         window = frame[y0:y1, x0:x1]
         # a hand is larger than the ball (before its radius is known: the one the window was sized for)
         hand_area = math.pi * (self.radius_ref_px or max((half_size - WINDOW_MARGIN_PX) / 2.0, 0.0)) ** 2
@@ -219,6 +222,7 @@ class BallTracker:
                 # a ball's centre, not a hand's: held or blurred balls teach the colour too
                 if not skin_mask(np.clip(np.rint(centre), 0, 255).astype(np.uint8).reshape(1, 1, 3))[0, 0]:
                     self._ball_colours = (self._ball_colours + [centre / self._gain])[-15:]
+                    self._ball_bgr = tuple(np.median(self._ball_colours, axis=0))
         if result.quality != QUALITY_OCCLUDED and hand is not None and hand.any():
             # a hand touching the ball hides part of it, whether or not it shows in this channel
             rows, columns = np.nonzero(hand)
@@ -251,7 +255,7 @@ class BallTracker:
         if sparse > DUPLICATE_TOLERANCE_GREY:
             return False
         # the sparse samples miss a small ball: nothing in the whole frame may have moved
-        if float(cv2.absdiff(frame, previous).max()) > self.background.threshold_grey:
+        if cv2.norm(frame, previous, cv2.NORM_INF) > self.background.threshold_grey:
             return False
         # a ball at rest in a noise-free video repeats itself: its frames are true, not repeated
         return predicted is None or predicted_step_px > STILL_BALL_STEP_PX
@@ -282,7 +286,7 @@ class BallTracker:
         if duplicate:
             return math.nan, math.nan, math.nan, QUALITY_DUPLICATE, math.nan, math.nan
         if self.contrast.in_colour:
-            self._gain = frame_gain(frame, self.background.colour)
+            self._gain = frame_gain(frame, scene_colour(self.background))
 
         result = None
         start = self.hints.ball_at_px
@@ -327,7 +331,7 @@ def _run(frames, background, expected_radius_px, contrast=None, hints=None):
 def _sample_blobs(samples, background, contrast, expected_radius_px):
     """Round blobs of each sample in ``contrast`` (:func:`dropfit.video.detect.find_blobs`)."""
     return [find_blobs(sample, background, contrast, expected_radius_px,
-                       frame_gain(sample, background.colour) if contrast.in_colour else 1.0) for sample in samples]
+                       frame_gain(sample, scene_colour(background)) if contrast.in_colour else 1.0) for sample in samples]
 
 
 def _fixtures(blobs):
@@ -713,14 +717,16 @@ def track_video_and_background(path, capture_fps=None, expected_radius_px=None, 
         if not samples:
             raise InputError(f"{name}: the frames could not be decoded consistently (corrupt video)")
         sample_images = [image for _, image in samples]
-        background, contrasts = scene_and_contrasts(sample_images, expected_radius_px, hints.ball_colour_bgr)
-        tracker = BallTracker(background, expected_radius_px, contrasts[0], hints)
-        kept = _KeptFrames(frame_memory_bytes)
-        stamps, rows = [], []
-        for _, time_s, image in video.frames(Progress(path.name, info.frame_count, progress_stream)):
-            stamps.append(time_s)
-            rows.append(tracker.update(image))
-            kept.keep(image, rows[-1])
+        # the frames are decoded while the scene is read from the samples
+        with video.frames(Progress(path.name, info.frame_count, progress_stream)) as frames:
+            background, contrasts = scene_and_contrasts(sample_images, expected_radius_px, hints.ball_colour_bgr)
+            tracker = BallTracker(background, expected_radius_px, contrasts[0], hints)
+            kept = _KeptFrames(frame_memory_bytes)
+            stamps, rows = [], []
+            for _, time_s, image in frames:
+                stamps.append(time_s)
+                rows.append(tracker.update(image))
+                kept.keep(image, rows[-1])
     check_frame_count(len(rows), info.frame_count, path)
     if len(rows) < MIN_FRAMES:
         raise InputError(f"{name}: the video has only {len(rows)} frame{'s' if len(rows) > 1 else ''}; a drop "
