@@ -94,13 +94,20 @@ def bgr_image(frame):
 
     Limited-range 4:2:0 frames (H.264 and HEVC as phones write them) are converted by OpenCV: the
     same ITU-R BT.601 coefficients as FFmpeg's scaler, each 2 × 2 block's stored colour repeated over
-    its pixels (the scaler interpolates it), in SIMD code on every core and about 1.7 times faster
+    its pixels (the scaler interpolates it), in SIMD code on every core and about 1.5 times faster
     (``benchmarks/tracking_speed.py``); other formats by FFmpeg's scaler.
     """
     limited_range = frame.color_range in (0, 1)  # unspecified or MPEG (16-235), not JPEG's full range
     if frame.format.name == "yuv420p" and limited_range and frame.width % 2 == 0 and frame.height % 2 == 0:
         return cv2.cvtColor(frame.to_ndarray(), cv2.COLOR_YUV2BGR_I420)
     return frame.to_ndarray(format="bgr24")
+
+
+def upright(image, rotation_deg):
+    """``image`` turned ``rotation_deg`` counter-clockwise (0, 90, 180 or 270: a display matrix's), as
+    the phone shows it."""
+    code = _ROTATE_CODES.get(rotation_deg)
+    return image if code is None else cv2.rotate(image, code)
 
 
 @dataclass(frozen=True)
@@ -215,10 +222,8 @@ class VideoFile:
         return float((frame.pts - self._start_pts) * frame.time_base)
 
     def image(self, frame):
-        """The frame as the phone shows it: BGR uint8 (:func:`bgr_image`), rotation applied."""
-        image = bgr_image(frame)
-        code = _ROTATE_CODES.get(self.info.rotation_deg)
-        return image if code is None else cv2.rotate(image, code)
+        """The frame as the phone shows it: BGR uint8 (:func:`bgr_image`), rotation applied (:func:`upright`)."""
+        return upright(bgr_image(frame), self.info.rotation_deg)
 
     def samples(self, count):
         """About ``count`` frames spread over the clip, for the background: (time s, BGR image) pairs.
