@@ -30,7 +30,7 @@ before the colour channels are formed.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 from functools import cached_property
 
 import numpy as np
@@ -208,13 +208,14 @@ class SceneColour:
 
     def window(self, left, top, right, bottom):
         """The part of columns ``left ≤ x < right``, rows ``top ≤ y < bottom`` (px), as views."""
-        return SceneColour(*(array[top:bottom, left:right] for array in
-                             (self.bgr, self.vector, self.length, self.unit, self.unit_power, self.skin)))
+        return self._indexed((slice(top, bottom), slice(left, right)))
 
     def at(self, rows, columns):
         """The scene at the pixels (``rows``, ``columns``): arrays of one entry per pixel."""
-        return SceneColour(*(array[rows, columns] for array in
-                             (self.bgr, self.vector, self.length, self.unit, self.unit_power, self.skin)))
+        return self._indexed((rows, columns))
+
+    def _indexed(self, index):
+        return SceneColour(*(getattr(self, field.name)[index] for field in fields(self)))
 
     @cached_property
     def gain_reference(self):
@@ -321,8 +322,8 @@ def _ball_blend(frame, background_colour, ball_bgr):
     ``|o|² - 2 share d + share² |s|²``."""
     scene = SceneColour.of(background_colour)
     ball = np.asarray(ball_bgr, np.float32)
-    ball_along = channel_dot(scene.vector, ball)
-    span2 = float(ball @ ball) - 2.0 * ball_along + scene.length * scene.length
+    scene_ball = channel_dot(scene.vector, ball)
+    span2 = float(ball @ ball) - 2.0 * scene_ball + scene.length * scene.length
     length2 = np.maximum(span2, 1.0)
     offset = frame.astype(np.float32) - scene.vector
     along = channel_dot(offset, ball) - channel_dot(offset, scene.vector)
