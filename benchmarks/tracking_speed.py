@@ -19,8 +19,6 @@ In one process, every pass runs each method below over the same file, each doing
 :func:`dropfit.video.decode.bgr_image`, and turned as the phone shows them):
 
 * ``decode only``      — decode every frame to BGR and do nothing else: the floor no tracker can beat.
-* ``decode only, FFmpeg's BGR`` — the same with FFmpeg's own converter (PyAV's ``to_ndarray("bgr24")``),
-  for reference: dropfit converts 4:2:0 frames with OpenCV instead.
 * ``dropfit``          — :func:`dropfit.video.track.track_video` with its defaults (no radius hint;
   it opens the file once, estimates the background from 11 key frames reached by seeking, and
   decodes every frame once in a second thread, which starts while the scene is read from those).
@@ -56,7 +54,7 @@ Output: a printed table per clip, the ratio dropfit fps / decode-only fps and wh
 is met, ``benchmarks/tracking_speed.csv`` (columns clip, method, frames_per_second,
 centre_rms_error_px, frames_lost, frames_evaluated, fraction_of_decode_only; decode only, not a
 tracker, leaves the error and lost columns empty) and ``benchmarks/tracking_speed.png`` (throughput
-against centre RMS error, log-log, one panel per clip; the decodes as horizontal lines).
+against centre RMS error, log-log, one panel per clip; decode only as a horizontal line).
 
 Run (about 2.5 minutes on 2 cores without trackpy; ``pip install trackpy`` adds it):
 
@@ -109,7 +107,6 @@ H264_CRF = 18
 H264_GOP = 30
 
 DECODE, DROPFIT, HOUGH, TRACKPY = "decode only", "dropfit", "cv2.HoughCircles", "trackpy.locate"
-DECODE_FFMPEG_BGR = "decode only, FFmpeg's BGR"
 
 
 # --------------------------------------------------------------------------------------------------
@@ -164,26 +161,20 @@ def encode_h264(source, path, fps):
 # --------------------------------------------------------------------------------------------------
 
 
-def _frames(path, to_bgr=bgr_image):
+def _frames(path):
     """Every frame of ``path`` as BGR uint8 as the phone shows it, decoded with PyAV and FFmpeg's own threads,
-    converted to BGR as dropfit converts them (:func:`dropfit.video.decode.bgr_image`) or by ``to_bgr``, and
-    turned by the display rotation (counter-clockwise degrees, a multiple of 90)."""
+    converted to BGR as dropfit converts them (:func:`dropfit.video.decode.bgr_image`) and turned by the
+    display rotation (:func:`dropfit.video.decode.upright`)."""
     with av.open(str(path)) as container:
         stream = container.streams.video[0]
         stream.thread_type = "AUTO"
         for frame in container.decode(stream):
-            yield upright(to_bgr(frame), round((frame.rotation or 0) / 90) * 90 % 360)
+            yield upright(bgr_image(frame), round((frame.rotation or 0) / 90) * 90 % 360)
 
 
 def decode_only(path, **_):
     """Decode every frame and do nothing else."""
     count = sum(1 for _ in _frames(path))
-    return np.full(count, np.nan), np.full(count, np.nan)
-
-
-def decode_only_ffmpeg_bgr(path, **_):
-    """Decode every frame, converted to BGR by FFmpeg's scaler (PyAV's ``to_ndarray(format="bgr24")``)."""
-    count = sum(1 for _ in _frames(path, lambda frame: frame.to_ndarray(format="bgr24")))
     return np.full(count, np.nan), np.full(count, np.nan)
 
 
@@ -242,8 +233,7 @@ def trackpy_track(path, start_xy, radius_px, invert=False, **_):
     return _follow(path, start_xy, features_in)
 
 
-METHODS = {DECODE: decode_only, DECODE_FFMPEG_BGR: decode_only_ffmpeg_bgr, DROPFIT: dropfit_track, HOUGH: hough_track,
-           TRACKPY: trackpy_track}
+METHODS = {DECODE: decode_only, DROPFIT: dropfit_track, HOUGH: hough_track, TRACKPY: trackpy_track}
 
 
 # --------------------------------------------------------------------------------------------------
@@ -278,8 +268,6 @@ def score(x, y, truth):
 def _panel(ax, results, title):
     decode = results[DECODE]["fps"]
     ax.axhline(decode, color="0.4", linestyle="--", label=f"decode only (floor): {decode:.0f} frames/s")
-    ax.axhline(results[DECODE_FFMPEG_BGR]["fps"], color="0.75", linestyle="--",
-               label=f"{DECODE_FFMPEG_BGR}: {results[DECODE_FFMPEG_BGR]['fps']:.0f} frames/s")
     ax.axhline(TARGET_RATIO * decode, color="0.6", linestyle=":",
                label=f"target: {TARGET_RATIO:.0%} of decode only")
     markers = {DROPFIT: ("o", "C3"), HOUGH: ("s", "C0"), TRACKPY: ("^", "C2")}
@@ -293,7 +281,7 @@ def _panel(ax, results, title):
     ax.set_yscale("log")
     rms = [results[n]["rms"] for n in trackers]
     ax.set_xlim(min(rms) / 2, max(rms) * 2)
-    fps = [results[n]["fps"] for n in trackers] + [decode, results[DECODE_FFMPEG_BGR]["fps"]]
+    fps = [results[n]["fps"] for n in trackers] + [decode]
     ax.set_ylim(min(fps) / 2, max(fps) * 2)
     ax.set_xlabel("centre RMS error (px, frames not lost)")
     ax.set_ylabel("throughput (frames/s, incl. decoding)")
@@ -352,8 +340,7 @@ def _measure(path, truth, methods, repeats, label):
         rms, rms_all, lost, evaluated = score(*positions[name], truth)
         results[name] = dict(fps=n_frames / wall, wall=wall, rms=rms, rms_all=rms_all, lost=lost,
                              evaluated=evaluated)
-    for name in (DECODE, DECODE_FFMPEG_BGR):
-        results[name].update(rms=math.nan, rms_all=math.nan, lost=None)  # not a tracker
+    results[DECODE].update(rms=math.nan, rms_all=math.nan, lost=None)  # not a tracker
     return results
 
 
@@ -370,8 +357,7 @@ def _report(label, description, results, repeats):
     peers = [name for name in (HOUGH, TRACKPY) if name in results]
     most_accurate = all(not results[DROPFIT]["rms"] >= results[p]["rms"] for p in peers)
     no_more_lost = all(results[DROPFIT]["lost"] <= results[p]["lost"] for p in peers)
-    print(f"\ndropfit / decode only throughput: {ratio:.3f} (target ≥ {TARGET_RATIO:.2f}); decode only / "
-          f"{DECODE_FFMPEG_BGR}: {results[DECODE]['fps'] / results[DECODE_FFMPEG_BGR]['fps']:.2f}")
+    print(f"\ndropfit / decode only throughput: {ratio:.3f} (target ≥ {TARGET_RATIO:.2f})")
     for p in peers:
         print(f"{p} RMS / dropfit RMS: {results[p]['rms'] / results[DROPFIT]['rms']:.2f}; "
               f"dropfit / {p} throughput: {results[DROPFIT]['fps'] / results[p]['fps']:.1f}")
