@@ -64,6 +64,8 @@ DUPLICATE_STRIDE_PX = 16
 #: A frame identical to the previous one is not a duplicate when the ball moved less than this a frame
 #: between its last two found centres, px (a ball at rest in a noise-free video, or just released).
 STILL_BALL_STEP_PX = 0.1
+#: Found centres older than this many frames are not used to predict the next one.
+HISTORY_FRAMES = 6
 #: A ball with a hand's pixels (:func:`dropfit.video.contrast.hand_pixels`) within this of its edge is
 #: held or touched: flagged occluded, px.
 HAND_TOUCH_PX = 2.0
@@ -170,9 +172,13 @@ class BallTracker:
         """The expected radius, px: the median of recent ``ok`` radii, else the given one."""
         return self._radius_ref if self._radii else self.expected_radius_px
 
+    def _recent_history(self):
+        """(frame index, x, y) of the last found balls, of the last ``HISTORY_FRAMES`` frames."""
+        return [h for h in self._history if self._index - h[0] <= HISTORY_FRAMES]
+
     def _predict(self):
         """Predicted centre (x, y), distance from the last found centre, and travel per frame (dx, dy), px."""
-        history = [h for h in self._history if self._index - h[0] <= 6]
+        history = self._recent_history()
         if not history:
             return None, 0.0, None
         if len(history) >= 3:
@@ -247,7 +253,7 @@ class BallTracker:
 
     def _recent_step_px(self):
         """How far the ball moved a frame between its last two found centres, px (0 before two)."""
-        history = [h for h in self._history if self._index - h[0] <= 6]
+        history = self._recent_history()
         if len(history) < 2:
             return 0.0
         (t0, x0, y0), (t1, x1, y1) = history[-2:]
