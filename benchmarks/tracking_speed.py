@@ -90,6 +90,7 @@ from dropfit.video_synth import default_clips, render_video  # noqa: E402
 
 HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent))  # phonesim, the independent clip generator beside the package
+sys.path.insert(0, str(HERE.parent / "tests"))  # its preset renderer shared with the tests (tests/helpers.py)
 CSV_PATH = HERE / "tracking_speed.csv"
 PNG_PATH = HERE / "tracking_speed.png"
 
@@ -129,10 +130,9 @@ def render_phone_clip(directory):
 
     Scored frames: the ball wholly in view, not a repeated frame, no hand in the picture.
     """
-    import phonesim
+    from helpers import phone_clip
 
-    path = Path(directory) / f"{PHONE_PRESET}{phonesim.PRESET_SUFFIX[PHONE_PRESET]}"
-    phonesim.render_clip(phonesim.PRESETS[PHONE_PRESET], path, seed=PHONE_SEED)
+    path, _ = phone_clip(PHONE_PRESET, directory, seed=PHONE_SEED, downscale=1.0)
     frames = pd.read_csv(path.with_suffix(".frames.csv"))
     visible = frames["in_frame"].astype(bool) & ~frames["is_duplicate"].astype(bool) & (frames["occluded_fraction"] < 0.01)
     truth = pd.DataFrame({"centroid_x_px": frames["x_px"], "centroid_y_px": frames["y_px"],

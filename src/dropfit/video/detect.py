@@ -467,9 +467,8 @@ def measure_ball(grey, background, threshold_grey, centre_guess, radius_ref_px=N
             cx, cy, r, centre_se, fit_rms = refined
         cx, cy = cx + left_px, cy + top_px
         # partial: the ball itself (not a hand reaching in from the border) crosses an image edge
-        left, top, right, bottom = image_edges
-        crosses = (left and cx - r < -0.5, top and cy - r < -0.5,
-                   right and cx + r > window_width - 0.5, bottom and cy + r > window_height - 0.5)
+        crosses = (image_edges[0] and cx - r < -0.5, image_edges[1] and cy - r < -0.5,
+                   image_edges[2] and cx + r > window_width - 0.5, image_edges[3] and cy + r > window_height - 0.5)
         quality = QUALITY_PARTIAL if (any(crosses) or not attached) else QUALITY_OCCLUDED
         return BallMeasurement(float(cx), float(cy), float(r), quality, truncated and not attached,
                                centre_se, fit_rms)
