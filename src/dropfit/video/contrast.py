@@ -45,8 +45,11 @@ BRIGHTER = "brighter"
 #: The channels, in the order preferred when they show the ball equally well (grey has full resolution).
 CHANNELS = (GREY, CHROMA, BRIGHTER)
 
-#: Pixels between the sparse samples of the frame gain and of the noise.
+#: Pixels between the sparse samples of a channel's noise.
 SAMPLE_STRIDE_PX = 8
+#: Pixels between the sparse samples of the frame gain, computed for every frame: a 720p frame gives
+#: 3 600, whose median ratio is good to 0.05 % with a sensor noise of 2 % of the level.
+GAIN_STRIDE_PX = 16
 #: Lower bound of a colour channel's foreground threshold, grey levels: the background's samples are
 #: key frames, and a codec renders the frames between them with colour errors of several levels that
 #: key frames do not show.
@@ -406,13 +409,13 @@ def frame_gain(frame, background_colour):
                               else _gain_reference(background_colour))
     if background.shape[0] < 10:
         return 1.0
-    s = SAMPLE_STRIDE_PX
+    s = GAIN_STRIDE_PX
     sample = frame[::s, ::s].reshape(-1, 3)[lit]
     return float(np.median(channel_dot(sample, background) / power))
 
 
 def _gain_reference(background_colour):
-    s = SAMPLE_STRIDE_PX
+    s = GAIN_STRIDE_PX
     background = background_colour[::s, ::s].reshape(-1, 3).astype(np.float32)
     power = channel_dot(background, background)
     lit = power > MIN_BACKGROUND_LENGTH ** 2
