@@ -209,14 +209,15 @@ def test_a_yellow_ball_on_a_wall_of_its_own_brightness_is_tracked_at_every_heigh
 @pytest.mark.parametrize("hints", [dict(roi_px=(0, 0, 250, 240)), dict(ball_colour_bgr=(40.0, 40.0, 200.0)),
                                    dict(ball_at_px=(0, 80, 41))])
 def test_hints_single_out_the_ball(hints):
-    """Decision: a larger green disc present in the first 8 frames (not in the background) draws the
-    search without hints; a region of interest, the ball's colour or its position in one frame
-    make the tracker follow the red ball from the first frame."""
+    """Decision: a larger green disc moving down the frame beside the ball (a second ball, not in the
+    background) draws the search without hints, and moving steadily it is followed as well as a ball
+    would be; a region of interest, the ball's colour or its position in one frame make the tracker
+    follow the red ball from the first frame."""
     rng = np.random.default_rng(36)
     frames, truth = draw_clip(rng, (150.0, 170.0, 185.0), (40.0, 40.0, 200.0), n=20)
-    decoy = disc_coverage(SIZE, 290.0, 200.0, 1.2 * RADIUS_PX)[:, :, None]
-    frames = [np.round(frame * (1 - decoy) + np.array([60.0, 170.0, 60.0]) * decoy).astype(np.uint8) if k < 8
-              else frame for k, frame in enumerate(frames)]
+    decoys = [disc_coverage(SIZE, 290.0, 60.0 + 5.0 * k, 1.2 * RADIUS_PX)[:, :, None] for k in range(len(frames))]
+    frames = [np.round(frame * (1 - decoy) + np.array([60.0, 170.0, 60.0]) * decoy).astype(np.uint8)
+              for frame, decoy in zip(frames, decoys)]
     unaided = tracked(frames)
     assert centre_errors(unaided, truth)[0] > RADIUS_PX  # the decoy is taken without hints
     table = tracked(frames, **hints)

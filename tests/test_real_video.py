@@ -9,7 +9,7 @@ import av
 import numpy as np
 import pytest
 
-from dropfit.video.track import track_video
+from dropfit.video.track import track_video, usable_rows
 from helpers import real_recording, tracker_point_mass
 
 
@@ -33,10 +33,9 @@ def _marked_frames_in_clip(trz_path, clip_frames):
     return np.array([int(np.argmin([np.abs(frame - c).mean() for c in clip_frames])) for frame in excerpt_frames])
 
 
-@pytest.mark.xfail(strict=True, reason="the ball (about 10 px across) is tracked in colour and found cleanly at 8 of "
-                                      "the 11 marks, within about 1.4 px of them; the frames at release and at two "
-                                      "marks near the hand are flagged occluded (issue 10)")
-def test_ball_toss_track_agrees_with_the_hand_marks():
+def _track_at_the_marks():
+    """The automatic track at the hand-marked frames: (which marks are usable rows, their distance to the
+    marks in px, the marks' own scatter in px)."""
     clip = real_recording("tracker-balltoss", "BallTossOut.mp4")
     trz = real_recording("tracker-balltoss", "BallToss.trz")
     marks, _ = tracker_point_mass(trz)
@@ -48,9 +47,28 @@ def test_ball_toss_track_agrees_with_the_hand_marks():
     marks_scatter_px = float(np.sqrt(np.mean(scatter ** 2)) * np.sqrt(len(steps) / (len(steps) - 3)))
 
     table = track_video(clip)
-    rows = table.iloc[in_clip[marks[:, 0].astype(int)]]
-    found = rows["quality"].isin(["ok", "blurred", "partial"]).to_numpy()
-    assert found.sum() >= len(marks) - 1, rows
-    distance = np.hypot(rows["x_px"].to_numpy() - marks[:, 1], rows["y_px"].to_numpy() - marks[:, 2])[found]
-    # the hand marks scatter by ~1.3 px (a click on a ball ~7 px across); the tracked centre is within that
-    assert np.sqrt(np.mean(distance ** 2)) <= 1.5 * marks_scatter_px, (distance, marks_scatter_px)
+    at_marks = in_clip[marks[:, 0].astype(int)]
+    usable = usable_rows(table)[at_marks]  # the rows dropfit fits trajectories with
+    distance = np.hypot(table["x_px"].to_numpy()[at_marks] - marks[:, 1],
+                        table["y_px"].to_numpy()[at_marks] - marks[:, 2])
+    return usable, distance, marks_scatter_px
+
+
+@pytest.mark.xfail(strict=True, reason="the hands in view are followed first; the ball's flight, found among the "
+                                      "frames' round blobs, puts the tracker on it, and 9 of the 11 marks are usable, "
+                                      "1.30 px RMS from them (bound 1.63 px); at one the small ball (4.3 px radius in "
+                                      "colour) is flagged occluded, at the last (5 px from the image's bottom edge) its "
+                                      "partial circle fit fails (issue 10)")
+def test_ball_toss_track_agrees_with_the_hand_marks():
+    usable, distance, marks_scatter_px = _track_at_the_marks()
+    assert usable.sum() >= len(usable) - 1, usable
+    # the hand marks scatter by ~1.1 px (a click on a ball ~10 px across); the tracked centre is within that
+    assert np.sqrt(np.mean(distance[usable] ** 2)) <= 1.5 * marks_scatter_px, (distance, marks_scatter_px)
+
+
+def test_ball_toss_track_follows_the_ball_not_the_hands():
+    """What works today, kept from going back: the ball, not a hand, at 9 or more of the 11 marks, each
+    usable one within 2 px of its mark (a hand is tens of px away)."""
+    usable, distance, marks_scatter_px = _track_at_the_marks()
+    assert usable.sum() >= 9, (usable, distance)
+    assert np.all(distance[usable] <= 2.0) and np.sqrt(np.mean(distance[usable] ** 2)) <= 1.5 * marks_scatter_px

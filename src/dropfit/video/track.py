@@ -50,6 +50,7 @@ from .contrast import (CHANNELS, CHROMA, GREY, Contrast, available_contrasts, co
                        scene_colour, skin_mask)
 from .decode import MIN_FRAMES, Progress, VideoFile, check_frame_count, check_video_file, frame_times, spread_indices
 from .detect import find_ball, find_blobs, measure_ball
+from .link import extrapolated, find_flight
 from .opencv import cv2
 # the flags and the centre's correlation, kept importable from here (overlay, tests)
 from .quality import (CLEAN_QUALITIES, QUALITY_BLURRED, QUALITY_DUPLICATE, QUALITY_LOST, QUALITY_OCCLUDED,  # noqa: F401
@@ -181,19 +182,7 @@ class BallTracker:
         history = self._recent_history()
         if not history:
             return None, 0.0, None
-        if len(history) >= 3:
-            (t0, x0, y0), (t1, x1, y1), (t2, x2, y2) = history[-3:]
-            t = self._index
-            l0 = (t - t1) * (t - t2) / ((t0 - t1) * (t0 - t2))
-            l1 = (t - t0) * (t - t2) / ((t1 - t0) * (t1 - t2))
-            l2 = (t - t0) * (t - t1) / ((t2 - t0) * (t2 - t1))
-            predicted = (l0 * x0 + l1 * x1 + l2 * x2, l0 * y0 + l1 * y1 + l2 * y2)
-        elif len(history) == 2:
-            (t0, x0, y0), (t1, x1, y1) = history
-            f = (self._index - t1) / (t1 - t0)
-            predicted = (x1 + f * (x1 - x0), y1 + f * (y1 - y0))
-        else:
-            predicted = history[-1][1:]
+        predicted = extrapolated(history, self._index)
         last = history[-1]
         step = math.hypot(predicted[0] - last[1], predicted[1] - last[2])
         gap = self._index - last[0]
@@ -489,6 +478,71 @@ def _track_without_ball_in_background(track, samples, indices, background, rows)
     return rows
 
 
+def _rows_before(rows_back, count):
+    """Rows of frames 0 … ``count`` - 1 from a pass run backwards from frame ``count`` (``rows_back[k]``
+    is frame ``count - k``), in forward order.
+
+    Backwards, the earlier frame of a repeated pair is the one flagged ``duplicate``; forwards the later
+    one is (its time stamp does not belong to its content): each run of repeats takes the measurement
+    of the frame after it at its first frame, and its other frames are the repeats.
+    """
+    rows = list(reversed(rows_back))[:count + 1]  # frames 0 … count
+    index = 0
+    while index < count:
+        if rows[index][3] != QUALITY_DUPLICATE:
+            index += 1
+            continue
+        end = index
+        while end < count and rows[end + 1][3] == QUALITY_DUPLICATE:
+            end += 1
+        measured, repeat = rows[end + 1], rows[index]
+        rows[index] = measured
+        for later in range(index + 1, end + 2):
+            rows[later] = repeat
+        index = end + 2
+    return rows[:count]
+
+
+def _started_on_a_flight(rows, frames, background, contrasts, expected_radius_px, hints):
+    """Rows tracked again from the ball's flight when the ``rows`` followed something else; or None.
+
+    A poor track (fewer than ``ENOUGH_USABLE_FRACTION`` of the frames where something was found are
+    usable) on a clip that starts with hands in view has often followed a hand. The longest
+    ballistic flight of round blobs (:func:`dropfit.video.link.find_flight`, in the contrast channels
+    in their order, the first that shows one) is the ball: it is tracked afresh forwards from the
+    flight's first frame, as from a user's ``--ball-at-px``, and backwards from there to the clip's
+    start, in each channel. The channel's rows with the most usable frames are returned, with the channel, when
+    more of them are usable than of ``rows``.
+
+    Parameters
+    ----------
+    rows : list
+        The tracker's rows so far.
+    frames : sequence of numpy.ndarray
+        Every frame of the clip, in memory.
+    """
+    usable, found = _usable_and_found(rows)
+    if hints.ball_at_px is not None or usable >= ENOUGH_USABLE_FRACTION * found:
+        return None
+    for contrast in contrasts:
+        flight = find_flight(frames, background, contrast)
+        if flight is not None:
+            break
+    else:
+        return None
+    start, x, y = flight.start()
+    best = None
+    for contrast in contrasts:
+        from_flight = hints._replace(ball_at_px=(0, x, y))
+        ahead = _run(frames[start:], background, expected_radius_px, contrast, from_flight)
+        behind = _run(frames[start::-1], background, expected_radius_px, contrast, from_flight)
+        rescued = _rows_before(behind, start) + ahead
+        rescued_usable = _usable_and_found(rescued)[0]
+        if rescued_usable > (best[0] if best else usable):
+            best = rescued_usable, rescued, contrast
+    return best[1:] if best else None
+
+
 def _table(rows, times_s):
     x, y, r, quality, centre_se, fit_rms = zip(*rows) if rows else ((),) * 6
     return pd.DataFrame({"frame": np.arange(len(rows)), "time_s": np.asarray(times_s, float),
@@ -573,6 +627,8 @@ def track_frames(frames, times_s, expected_radius_px=None, *, background=None, s
         rows, contrast = _track_in_best_contrast(
             lambda clean, contrast: _run(frames, clean, expected_radius_px, contrast, hints), contrasts,
             _run(frames, background, expected_radius_px, contrasts[0], hints), samples, indices, background)
+        rows, contrast = _started_on_a_flight(rows, frames, background, contrasts, expected_radius_px, hints) or (
+            rows, contrast)
     else:
         contrast = contrast_of(GREY, (), background)
         rows = _run(frames, background, expected_radius_px, contrast, hints)
@@ -760,6 +816,9 @@ def track_video_and_background(path, capture_fps=None, expected_radius_px=None, 
             return _run(frames, clean, expected_radius_px, contrast, hints)
 
         rows, contrast = _track_in_best_contrast(track, contrasts, rows, list(images), list(indices), background)
+    if kept.whole:  # (a clip too long to keep in memory is not tracked again from a flight)
+        rows, contrast = _started_on_a_flight(rows, list(kept.frames(background)), background, contrasts,
+                                              expected_radius_px, hints) or (rows, contrast)
     container_fps = float(info.container_fps) if info.container_fps else math.nan
     times, how = frame_times(stamps, container_fps, capture_fps, path)
     table = _table(rows, times)
