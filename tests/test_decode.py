@@ -118,6 +118,24 @@ def test_a_clip_is_opened_once_and_decoded_once(tmp_path, monkeypatch, name, cod
         assert error.max() < CENTRE_TOLERANCE_PX
 
 
+def test_background_samples_are_the_frames_a_plain_decoding_gives(tmp_path):
+    """Key frames reached by seeking (decoded by a decoder of their own for H.264) are the very frames,
+    at the same times, that decoding the file in order gives, turned as the phone shows them."""
+    frames, _ = ball_frames(60, step_px=(2.0, 0.0), gravity_px=0.035)
+    path = encode_clip(tmp_path / "keys.mp4", frames, gop=4, rotation_deg=270)
+    with av.open(str(path)) as container:
+        stream = container.streams.video[0]
+        plain = {frame.pts * stream.time_base: np.rot90(frame.to_ndarray(format="bgr24"), k=-1)
+                 for frame in container.decode(stream)}
+    start = min(plain)
+    with VideoFile(path) as video:
+        samples = video.samples(11)
+    assert len(samples) == 11 and len({time_s for time_s, _ in samples}) == 11
+    for time_s, image in samples:
+        expected = plain[min(plain, key=lambda t: abs(float(t - start) - time_s))]
+        assert np.array_equal(image, expected), time_s
+
+
 def test_ball_in_the_background_is_tracked_again_from_memory(tmp_path, monkeypatch):
     """A ball in view and nearly still all clip long is in the first background; the further passes
     use frames kept whole, never the file; past the memory budget, crops about the ball serve the
