@@ -116,3 +116,38 @@ def test_a_repeated_frame_before_the_flight_is_flagged_as_the_later_one():
     table = track_frames(frames, np.arange(FRAMES) / 60.0)
     assert table["quality"].iloc[3] == "duplicate"
     assert table["quality"].iloc[2] != "duplicate"
+
+
+@pytest.mark.parametrize("release_frame", [6, 7, 8, 9])
+def test_a_ball_leaving_a_still_hand_is_found_in_its_first_free_frame(release_frame):
+    """A ball held in a skin-coloured hand (measured occluded frame after frame, where only every 4th
+    frame is searched whole) and thrown down leaves a finger behind, grey (not skin-coloured) and
+    touching the hand, where the tracker looks first. The ball is still tracked from its first frame
+    clear of the hand, whichever frame of that run it is: it is looked for near the finger in every
+    frame. The hand stays three frames after the throw, then leaves (in view for a third of the clip:
+    not in the background)."""
+    rng = np.random.default_rng(release_frame)
+    wall = np.full(SHAPE + (3,), 110.0) + rng.normal(0.0, 4.0, SHAPE)[:, :, None]
+    rows, columns = np.indices(SHAPE)
+    held = (160.3, 76.2)
+    hand = ((columns - held[0]) / 30.0) ** 2 + ((rows - held[1] + 15.0) / 11.0) ** 2 <= 1.0
+    finger = ((columns - held[0]) / 4.0) ** 2 + ((rows - held[1]) / 6.5) ** 2 <= 1.0
+    frames, truth = [], []
+    for frame in range(release_frame + 30):
+        t = max(frame - release_frame, 0)
+        x, y = held[0], held[1] + 16.0 * t + 0.5 * 1.5 * t * t
+        image = wall.copy()
+        if frame <= release_frame + 3:
+            image[finger] = 190.0  # grey, not skin: seen as foreground
+            image[hand] = (120.0, 160.0, 220.0)  # BGR of skin (YCrCb 173, 161, 98)
+        coverage = disc_coverage(SHAPE, x, y, BALL_RADIUS_PX)[:, :, None]
+        image = image * (1 - coverage) + 235.0 * coverage
+        image += rng.normal(0.0, 2.0, SHAPE + (3,))
+        frames.append(np.clip(np.rint(image), 0, 255).astype(np.uint8))
+        truth.append((x, y))
+    truth = np.array(truth)
+    table = track_frames(frames, np.arange(len(frames)) / 60.0, expected_radius_px=BALL_RADIUS_PX)
+    first_free = release_frame + 1
+    assert usable_rows(table)[first_free], table.iloc[release_frame - 2:first_free + 2]
+    error = np.hypot(table["x_px"] - truth[:, 0], table["y_px"] - truth[:, 1]).to_numpy()
+    assert error[first_free] <= 0.3

@@ -72,6 +72,14 @@ HISTORY_FRAMES = 6
 HAND_TOUCH_PX = 2.0
 #: Extra margin of the search window, px.
 WINDOW_MARGIN_PX = 6
+#: While the ball stays occluded where it is followed (held in a hand), a lone disc is looked for
+#: within LOCAL_SEARCH_RADII radii (at least LOCAL_SEARCH_MIN_PX) of it, where a ball leaving the hand
+#: is, and over the whole frame in the first frame of the run and every OCCLUDED_FULL_SEARCH_STRIDE-th:
+#: a ball held for a second cost a whole-frame search in each of its frames, most of a phone clip's
+#: tracking time.
+LOCAL_SEARCH_RADII = 8.0
+LOCAL_SEARCH_MIN_PX = 80
+OCCLUDED_FULL_SEARCH_STRIDE = 4
 #: At most this many further tracking passes, each with the ball cut out of the background samples
 #: where the previous pass found it; they stop once the sampled balls move less than
 #: BACKGROUND_SETTLED_PX between passes.
@@ -161,6 +169,7 @@ class BallTracker:
         self._history = []  # (frame index, x, y) of the last found balls
         self._previous = None
         self._index = -1
+        self._occluded_run = 0  # frames in a row measured occluded where the ball was followed
 
     @property
     def ball_bgr(self):
@@ -226,15 +235,22 @@ class BallTracker:
                 result = replace(result, quality=QUALITY_OCCLUDED)
         return replace(result, x_px=result.x_px + x0, y_px=result.y_px + y0)
 
-    def _search(self, frame):
-        """The ball measured where a whole-frame search finds it, or None."""
-        region = frame[self.top:self.bottom, self.left:self.right]
-        fixtures = [(x - self.left, y - self.top, r) for x, y, r in self.contrast.fixtures]
-        found = find_ball(region, self._search_background, self.contrast, self.radius_ref_px, self._gain, fixtures,
+    def _search(self, frame, near=None):
+        """The ball measured where a search of the whole frame (or, ``near`` = (x, y, reach) px, of the
+        square ``reach`` about x, y) finds it, or None."""
+        left, top, right, bottom, background = self.left, self.top, self.right, self.bottom, self._search_background
+        if near is not None:
+            x, y, reach = near
+            left, top = max(int(x - reach), self.left), max(int(y - reach), self.top)
+            right, bottom = min(int(x + reach) + 1, self.right), min(int(y + reach) + 1, self.bottom)
+            background = self.background.cropped(left, top, right, bottom)
+        region = frame[top:bottom, left:right]
+        fixtures = [(x - left, y - top, r) for x, y, r in self.contrast.fixtures]
+        found = find_ball(region, background, self.contrast, self.radius_ref_px, self._gain, fixtures,
                           self.hints.ball_colour_bgr)
         if found is None:
             return None
-        x, y, r = found[0] + self.left, found[1] + self.top, found[2]
+        x, y, r = found[0] + left, found[1] + top, found[2]
         result = self._measure_around(frame, (x, y), 2.0 * max(r, self.radius_ref_px or r) + WINDOW_MARGIN_PX)
         if result is not None and result.truncated:
             result = self._measure_around(frame, (result.x_px, result.y_px), 4.0 * r + 2 * WINDOW_MARGIN_PX)
@@ -305,10 +321,16 @@ class BallTracker:
             result = self._measure_around(frame, predicted, half_size, motion)
             if result is not None and result.truncated:
                 result = self._measure_around(frame, (result.x_px, result.y_px), 2.0 * half_size, motion)
-        if result is None or result.truncated or result.quality == QUALITY_OCCLUDED:
+        occluded = result is not None and not result.truncated and result.quality == QUALITY_OCCLUDED
+        self._occluded_run = self._occluded_run + 1 if occluded else 0
+        if result is None or result.truncated or occluded:
             # lost, or merged with something (a hand that held the ball and moves away): a lone disc
             # elsewhere in the frame is the ball
-            searched = self._search(frame)
+            near = None
+            if occluded and (self._occluded_run - 1) % OCCLUDED_FULL_SEARCH_STRIDE:
+                reach = max(LOCAL_SEARCH_RADII * (self.radius_ref_px or result.radius_px), LOCAL_SEARCH_MIN_PX)
+                near = (result.x_px, result.y_px, reach)
+            searched = self._search(frame, near)
             if result is None or result.truncated or (searched is not None and searched.quality == QUALITY_OK):
                 result = searched
         if result is None:
@@ -511,8 +533,8 @@ def _started_on_a_flight(rows, frames, background, contrasts, expected_radius_px
     ballistic flight of round blobs (:func:`dropfit.video.link.find_flight`, in the contrast channels
     in their order, the first that shows one) is the ball: it is tracked afresh forwards from the
     flight's first frame, as from a user's ``--ball-at-px``, and backwards from there to the clip's
-    start, in each channel. The channel's rows with the most usable frames are returned, with the channel, when
-    more of them are usable than of ``rows``.
+    start, in each channel. The channel's rows with the most usable frames are returned, with the
+    channel, when more of them are usable than of ``rows``.
 
     Parameters
     ----------
@@ -531,9 +553,9 @@ def _started_on_a_flight(rows, frames, background, contrasts, expected_radius_px
     else:
         return None
     start, x, y = flight.start()
+    from_flight = hints._replace(ball_at_px=(0, x, y))
     best = None
     for contrast in contrasts:
-        from_flight = hints._replace(ball_at_px=(0, x, y))
         ahead = _run(frames[start:], background, expected_radius_px, contrast, from_flight)
         behind = _run(frames[start::-1], background, expected_radius_px, contrast, from_flight)
         rescued = _rows_before(behind, start) + ahead
