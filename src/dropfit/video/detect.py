@@ -58,7 +58,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..numerics import least_squares_covariance, robust_sigma
-from .contrast import chromaticity, scene_colour
+from .contrast import chromaticity, frame_gain, scene_colour
 from .opencv import cv2
 # the flags documented above, kept importable from here; defined apart so that reading a tracked
 # table does not load OpenCV
@@ -556,6 +556,20 @@ def find_blobs(frame, background, contrast, expected_radius_px=None, gain=1.0):
     return blobs
 
 
+def frame_blobs(frame, background, contrast, expected_radius_px=None):
+    """:func:`find_blobs` of a whole frame, its gain against the background measured from the frame itself
+    (:func:`dropfit.video.contrast.frame_gain`) in a colour channel."""
+    gain = frame_gain(frame, scene_colour(background)) if contrast.in_colour else 1.0
+    return find_blobs(frame, background, contrast, expected_radius_px, gain)
+
+
+def off_fixtures(blobs, fixtures):
+    """The ``blobs`` (x, y, radius px, ...) not centred within a radius of one of ``fixtures`` (x, y, radius
+    px): blobs that stay in one place through the clip are not the ball."""
+    return [blob for blob in blobs
+            if not any(math.hypot(blob[0] - x, blob[1] - y) <= max(r, blob[2]) for x, y, r in fixtures)]
+
+
 def find_ball(frame, background, contrast, expected_radius_px=None, gain=1.0, fixtures=(), colour_bgr=None):
     """Search a whole frame for the ball: of :func:`find_blobs`, a lone disc before a merged blob, then
     the radius nearest the expected one (without one, the largest).
@@ -570,8 +584,7 @@ def find_ball(frame, background, contrast, expected_radius_px=None, gain=1.0, fi
     (float, float, float, bool) or None
         As one blob of :func:`find_blobs`; None when there is none.
     """
-    blobs = [blob for blob in find_blobs(frame, background, contrast, expected_radius_px, gain)
-             if not any(math.hypot(blob[0] - x, blob[1] - y) <= max(r, blob[2]) for x, y, r in fixtures)]
+    blobs = off_fixtures(find_blobs(frame, background, contrast, expected_radius_px, gain), fixtures)
     if colour_bgr is not None and frame.ndim == 3:
         wanted = chromaticity(colour_bgr)
         blobs = [blob for blob in blobs

@@ -6,7 +6,7 @@ ball, that blob can be a knuckle or a sleeve, and the tracker follows the hand. 
 out is its motion: in flight it keeps its size and its centre follows a parabola in time (constant
 acceleration, the same in every frame), which no hand does for long. This module finds that flight:
 
-1. In every frame, the lone round blobs (:func:`dropfit.video.detect.find_blobs`), not a fixture.
+1. In every frame, the lone round blobs (:func:`dropfit.video.detect.frame_blobs`), not a fixture.
 2. From each pair of blobs in consecutive frames of about the same size, a chain is grown frame by
    frame: the next centre is predicted from the last three (constant acceleration; from the last two
    at first) and the blob of about the same size nearest the prediction, within
@@ -25,8 +25,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from .contrast import frame_gain, scene_colour
-from .detect import find_blobs
+from .detect import frame_blobs, off_fixtures
 
 #: A candidate joins a chain when it is within this many radii of the predicted centre (and 2 px).
 LINK_TOLERANCE_RADII = 1.0
@@ -58,9 +57,7 @@ class Flight(NamedTuple):
 
 def frame_candidates(frame, background, contrast):
     """Lone round blobs of one frame in ``contrast``, not at a fixture: array (n, 3) of x, y and radius, px."""
-    gain = frame_gain(frame, scene_colour(background)) if contrast.in_colour else 1.0
-    blobs = [blob for blob in find_blobs(frame, background, contrast, None, gain) if blob[3]
-             and not any(math.hypot(blob[0] - x, blob[1] - y) <= max(r, blob[2]) for x, y, r in contrast.fixtures)]
+    blobs = [blob for blob in off_fixtures(frame_blobs(frame, background, contrast), contrast.fixtures) if blob[3]]
     return np.array([blob[:3] for blob in blobs[:MAX_CANDIDATES]], float).reshape(-1, 3)
 
 

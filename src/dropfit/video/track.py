@@ -49,7 +49,7 @@ from .background import (BACKGROUND_SAMPLES, Background, background_without_ball
 from .contrast import (CHANNELS, CHROMA, GREY, Contrast, available_contrasts, contrast_of, frame_gain, hand_pixels,
                        scene_colour, skin_mask)
 from .decode import MIN_FRAMES, Progress, VideoFile, check_frame_count, check_video_file, frame_times, spread_indices
-from .detect import find_ball, find_blobs, measure_ball
+from .detect import find_ball, frame_blobs, measure_ball
 from .link import extrapolated, find_flight
 from .opencv import cv2
 # the flags and the centre's correlation, kept importable from here (overlay, tests)
@@ -357,9 +357,8 @@ def _run(frames, background, expected_radius_px, contrast=None, hints=None):
 
 
 def _sample_blobs(samples, background, contrast, expected_radius_px):
-    """Round blobs of each sample in ``contrast`` (:func:`dropfit.video.detect.find_blobs`)."""
-    return [find_blobs(sample, background, contrast, expected_radius_px,
-                       frame_gain(sample, scene_colour(background)) if contrast.in_colour else 1.0) for sample in samples]
+    """Round blobs of each sample in ``contrast`` (:func:`dropfit.video.detect.frame_blobs`)."""
+    return [frame_blobs(sample, background, contrast, expected_radius_px) for sample in samples]
 
 
 def _fixtures(blobs):
