@@ -4,6 +4,7 @@ encoded clips, the real data's place, phonesim clips and a ball drawn into a fra
 
 import os
 import pathlib
+import re
 import subprocess
 import sys
 
@@ -73,10 +74,21 @@ def dropfit(*args, cwd):
                           text=True, timeout=CALL_TIMEOUT_S)
 
 
+#: The one line a tracked clip writes to a log (dropfit.video.decode.Progress), written here
+#: independently: name, frames, seconds and frames/s.
+PROGRESS_LINE = re.compile(r"\S.*: \d+ frames in \d+\.\d s \(\d+ frames/s\)")
+
+
+def without_progress(stderr):
+    """The lines of ``stderr`` other than a tracked clip's progress line (one per clip, in logs)."""
+    return [line for line in stderr.splitlines() if not PROGRESS_LINE.fullmatch(line)]
+
+
 def assert_one_line_error(stderr, file_name):
-    """stderr is exactly one line ``dropfit: error: …`` naming ``file_name``, without a traceback."""
+    """stderr is exactly one line ``dropfit: error: …`` naming ``file_name``, without a traceback
+    (besides a tracked clip's progress line)."""
     assert "Traceback" not in stderr
-    lines = stderr.splitlines()
+    lines = without_progress(stderr)
     assert len(lines) == 1, stderr
     assert lines[0].startswith("dropfit: error: ")
     assert file_name in lines[0]

@@ -82,7 +82,7 @@ SEPARATE_KEY_FRAME_CODECS = ("h264", "hevc")
 #: DECODE_AHEAD_FRAMES (a 1280 × 720 clip's 0.2-0.3 s of decoding, as long as reading its scene takes).
 DECODE_AHEAD_BYTES = 256 * 2**20
 DECODE_AHEAD_FRAMES = 16
-#: Clips with at least this many frames show their progress (shorter ones take a second or two).
+#: Clips with at least this many frames show their progress on a terminal (shorter ones take a second or two).
 PROGRESS_MIN_FRAMES = 500
 #: Least time between two updates of the progress line on a terminal, s.
 PROGRESS_INTERVAL_S = 0.25
@@ -397,9 +397,10 @@ class Progress:
 
     On a terminal (``stream.isatty()``), one line updated in place with ``\\r`` at most every
     ``PROGRESS_INTERVAL_S``: frames done of the declared total, frames/s and the time left. When
-    done, one line: frames, seconds and frames/s; that is the only line written where standard
-    error is not a terminal (a log file), so a log gets one line per clip, none per frame. Clips
-    shorter than ``total_min`` frames write nothing.
+    done, one line: frames, seconds and frames/s. Where standard error is not a terminal (a log
+    file) that summary is the only line written, for every clip: a log gets one line per clip, none
+    per frame. On a terminal, clips shorter than ``total_min`` frames write nothing (they take well
+    under a second).
 
     Parameters
     ----------
@@ -410,7 +411,7 @@ class Progress:
     stream : file, optional
         Where to write; standard error by default.
     total_min : int
-        Fewer expected frames than this: silent.
+        Fewer expected frames than this: silent on a terminal.
     clock : callable
         Seconds, monotonic (for tests).
     """
@@ -418,15 +419,15 @@ class Progress:
     def __init__(self, label, total, stream=None, total_min=PROGRESS_MIN_FRAMES, clock=time.monotonic):
         self.label, self.total = label, total
         self.stream = stream if stream is not None else sys.stderr
-        self.enabled = total >= total_min
         self.clock = clock
         self.started = clock()
         self._shown = self.started
-        self._tty = self.enabled and _is_terminal(self.stream)
+        self._tty = _is_terminal(self.stream)
+        self.enabled = total >= total_min or not self._tty
 
     def update(self, done):
         """``done`` frames so far: refresh the terminal line when it is due."""
-        if not self._tty:
+        if not (self._tty and self.enabled):
             return
         now = self.clock()
         if now - self._shown < PROGRESS_INTERVAL_S:
