@@ -286,11 +286,17 @@ def find_release(t, y, noise, dip, acceleration):
     prior_row, prior_target = prior_weight * np.array([0.0, 0.0, 1.0]), -0.5 * acceleration * prior_weight
     while True:
         design = np.vstack([np.column_stack([np.ones(end - start), tau[start:end], tau[start:end] ** 2]), prior_row])
-        coef, covariance = linear_fit(design, np.append(y[start:end], prior_target))
-        earlier = np.column_stack([np.ones(start), tau[:start], tau[:start] ** 2])
-        predicted_variance = np.einsum("ij,jk,ik->i", earlier, covariance, earlier)
+        target = np.append(y[start:end], prior_target)
+        coef, covariance = linear_fit(design, target)
         # a parabola misses a long fall with drag (by 0.3 mm over 254 cm): judge by what it misses so far
         scale = max(noise, robust_sigma(y[start:end] - design[:-1] @ coef))
+        # the fit's covariance takes σ from a few residuals: on a short stretch that fall close to
+        # its parabola it is too small, and the extrapolation fails samples of the fall (a clip's
+        # release was read 0.4 s late); σ is never less than the noise
+        fit_variance = float(np.sum((target - design @ coef) ** 2)) / max(end - start - 2, 1)
+        covariance = covariance * max(1.0, scale**2 / max(fit_variance, np.finfo(float).tiny))
+        earlier = np.column_stack([np.ones(start), tau[:start], tau[:start] ** 2])
+        predicted_variance = np.einsum("ij,jk,ik->i", earlier, covariance, earlier)
         misfit = np.abs(y[:start] - earlier @ coef) > RELEASE_SIGMAS * np.sqrt(scale**2 + predicted_variance)
         failing = np.flatnonzero(misfit)
         new_start = int(failing[-1]) + 1 if failing.size else 0
