@@ -3,13 +3,14 @@
 import dataclasses
 import json
 
+import numpy as np
 import pandas as pd
 import pytest
 
 from dropfit.analysis import analyse_bounces
 from dropfit.synth import simulate_drop
 from dropfit.video_synth import default_clips, make_default_videos, render_video
-from dropfit.videolog import trajectory_from_video
+from dropfit.videolog import FLOOR_ROW_SE_PX, find_floor_row, trajectory_from_video
 
 E_TOLERANCE = 0.005  # dimensionless, per impact (issue 4)
 REBOUND_TOLERANCE_M = 0.005  # m
@@ -114,3 +115,28 @@ def test_closeup_contact_time_e_k_c_within_tolerance(closeup_fit, capsys):
     assert abs(impact["t_contact_ms"] - 1e3 * true_impact["contact_time_s"]) <= MAX_STANDARD_ERRORS * impact["t_contact_se_ms"]
     assert abs(k["value"] - true_k) <= MAX_STANDARD_ERRORS * k["se"]
 
+
+
+def _floor_scene(floor_row_px, wall, floor, seed):
+    """A 60 x 80 px background: a wall (stripes across, a 2-level grain) with a light ruler strip (dark ticks every 2.5 px) standing on a floor whose edge
+    is at ``floor_row_px`` (pixel centres on whole rows), each pixel the area-weighted mix of what
+    covers it, and 0.7 grey levels of noise."""
+    rng = np.random.default_rng(seed)
+    rows, columns = np.mgrid[:60, :80].astype(float)
+    scene = wall + 6.0 * np.sin(columns / 3.0) + rng.normal(0.0, 2.0, (60, 80))
+    strip = (columns >= 10) & (columns < 22)
+    tick = np.abs(((rows + 0.3) / 2.5) % 1.0 - 0.5) > 0.35
+    scene[strip] = np.where(tick[strip], wall - 60.0, wall + 80.0)
+    below = np.clip(rows + 0.5 - floor_row_px, 0.0, 1.0)  # the part of each pixel under the edge
+    scene = (1.0 - below) * scene + below * floor
+    return np.clip(np.rint(scene + rng.normal(0.0, 0.7, scene.shape)), 0, 255).astype(np.uint8)
+
+
+@pytest.mark.parametrize("floor_row_px", [40.0, 40.3, 40.5, 40.77])
+@pytest.mark.parametrize(("wall", "floor"), [(110.0, 60.0), (90.0, 170.0)])
+def test_floor_edge_is_found_to_a_few_hundredths_of_a_pixel_with_a_ruler_standing_on_it(floor_row_px, wall, floor):
+    """The coverage clips' floor read 0.13 px low when the halfway level came from the rows' means
+    (a lighter ruler and a textured wall above it): each column's own levels set its crossing."""
+    errors = np.array([find_floor_row(_floor_scene(floor_row_px, wall, floor, seed), 38.0, 6.0) - floor_row_px
+                       for seed in range(5)])
+    assert abs(errors.mean()) < 0.02 and np.abs(errors).max() < FLOOR_ROW_SE_PX, errors

@@ -191,7 +191,8 @@ def video_trial(seed, directory, scenario=None, floor_known=True):
     The clip goes through :func:`dropfit.pipeline.analyse_recording` as the workflow runs a video: the
     scale is given (as a ruler calibration would give it) and so is the floor (``floor_m``, as a rig
     that measured it would give it; with ``floor_known`` false it is found in the image, the
-    workflow's default for a video without ``floor_m``), and e and the rebound heights are tested;
+    workflow's default for a video without ``floor_m``, then at a sub-pixel row drawn per seed), and
+    e and the rebound heights are tested;
     contact times are not resolvable at 120 fps. The ball's mass is not given (the rendered ball
     flies without drag); the site's g is drawn as in :func:`log_trial`. The e0 of the ball is drawn per seed from 0.70–0.80 so that the clips differ
     in more than their pixel noise.
@@ -216,14 +217,15 @@ def video_trial(seed, directory, scenario=None, floor_known=True):
     truth = simulate_drop(spec["drop_height_m"], spec["radius_m"], {"kind": "constant", "e0": e0},
                           mass_kg=spec["mass_kg"], release_time_s=spec["release_time_s"],
                           gravity_m_s2=site_gravity_draw(rng))
+    # a floor to be found lies anywhere within its pixel row (a whole row is half-covered, found exactly)
+    floor_row_px = spec["image_row_of_floor_px"] + (0.0 if floor_known else float(rng.uniform(-0.5, 0.5)))
     camera = Camera(spec["width_px"], spec["height_px"], spec["fps"], 0.0, px_per_m=spec["px_per_m"],
-                    image_row_of_floor_px=spec["image_row_of_floor_px"], noise_sigma=spec["noise_sigma"],
-                    quality=spec["quality"])
+                    image_row_of_floor_px=floor_row_px, noise_sigma=spec["noise_sigma"], quality=spec["quality"])
     scene = Scene(ruler_column_px=2.0, ruler_width_px=6.0, ruler_top_m=spec["drop_height_m"] + 0.2)
     path = Path(directory) / f"coverage_{seed}.avi"
     frames = render_video(truth, camera, scene, spec["duration_s"], seed, path)
     try:
-        floor_m = -spec["image_row_of_floor_px"] / spec["px_per_m"] if floor_known else None  # heights: −row × scale
+        floor_m = -floor_row_px / spec["px_per_m"] if floor_known else None  # heights: −row × scale
         analysis = analyse_recording(frames.attrs["video_path"], ball_radius_m=spec["radius_m"],
                                      scale_m_per_px=1.0 / spec["px_per_m"], floor_m=floor_m).analysis
     finally:
