@@ -197,3 +197,19 @@ def test_a_tracked_ball_that_does_not_fall_with_g_is_refused_with_what_was_track
     assert message.startswith(f"{tmp_path / 'clip.mov'}: not analysable: the tracked ball falls with 0.005 m/s², "
                               f"not g: it was measured in 100 of 300 frames, over 0.01 m of height")
     assert "--ball-at-px" in message and "column names" not in message and "\n" not in message
+
+
+def test_an_analysis_refusal_of_a_poorly_tracked_video_says_what_was_tracked(tmp_path):
+    """A bounce the analysis cannot use, in a video where the ball was measured in a third of the frames
+    over 1 cm of height (white on a light wall, seen over the table only): the refusal adds that, and
+    the options that help; in a well tracked video it stays the analysis's own."""
+    time = np.arange(300) / 60.0
+    heights = np.where(np.arange(300) % 2 == 0, 0.02, 0.03)
+    said = f"{tmp_path / 'clip.mov'}: no bounce with at least 5 samples in the flights before and after it"
+    poorly = xr.Dataset({"y": ("time", heights), "quality": ("time", np.where(np.arange(300) % 3 == 0, 0, 1))},
+                        coords={"time": time})
+    message = video_limits.analysis_refusal(said, poorly)
+    assert message.startswith(f"{said}: it was measured in 100 of 300 frames, over 0.01 m of height")
+    assert "--ball-at-px" in message and "\n" not in message
+    well = poorly.assign(quality=("time", np.zeros(300, int)))
+    assert video_limits.analysis_refusal(said, well) == said

@@ -84,7 +84,7 @@ def flight_height(t, t_apex, y_apex, k=0.0, g=STANDARD_GRAVITY_M_S2):
     x = w * np.abs(dt)
     with np.errstate(invalid="ignore", divide="ignore"):
         rising = np.log(np.cos(np.minimum(x, np.pi / 2))) / k
-    falling = -np.log(np.cosh(x)) / k
+    falling = -(x + np.log1p(np.exp(-2.0 * x)) - np.log(2.0)) / k  # log cosh x, without cosh's overflow
     return y_apex + np.where(dt < 0, rising, falling)
 
 

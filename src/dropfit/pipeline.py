@@ -259,6 +259,10 @@ def analyse_trajectory(trajectory, settings=None, source=None):
         if "video" not in attrs:
             raise
         raise InputError(video_limits.not_free_fall(attrs["video"], error.acceleration_m_s2, trajectory)) from None
+    except InputError as error:
+        if "video" not in attrs:
+            raise
+        raise InputError(video_limits.analysis_refusal(str(error), trajectory)) from None
     if "video" in attrs:  # a video's later bounces may be too briefly filmed to resolve
         analysis = video_limits.select_resolved_impacts(analysis, attrs["video"], interval)
     if "x" in trajectory:  # a 2-D recording: the tangential velocities and angles (e stays the vertical fit's)

@@ -166,11 +166,9 @@ def not_free_fall(source, acceleration_m_s2, trajectory):
     str
         One line: the acceleration, how many frames were measured and over what height, and what to try.
     """
-    measured = trajectory["quality"].values == 0
-    heights = trajectory["y"].values[measured]
-    span = float(np.ptp(heights)) if heights.size else 0.0
+    measured, span, found = _measured(trajectory)
     said = (f"{shown_path(source)}: not analysable: the tracked ball falls with {acceleration_m_s2:.3g} m/s², not g: "
-            f"it was measured in {int(measured.sum())} of {measured.size} frames, over {span:.3g} m of height")
+            f"{found}")
     times = trajectory["time"].values
     interval_s = float(np.median(np.diff(times))) if times.size > 1 else np.nan
     fall_s = math.sqrt(2.0 * span / STANDARD_GRAVITY_M_S2)
@@ -182,6 +180,38 @@ def not_free_fall(source, acceleration_m_s2, trajectory):
                 f"{1.0 / interval_s:.3g} frames/s, fewer than the {MIN_FRAME_INTERVALS_PER_FLIGHT} a flight needs "
                 f"to be told from its impacts; film at {needed:g} frames/s or more (slow motion), or drop from higher")
     return (f"{said} (the tracker lost the ball in its flights or followed something else, or the scale is wrong); "
+            f"{TRACKER_HELP}")
+
+
+def _measured(trajectory):
+    """Which frames the ball was measured in, the height (m) they span, and both in words."""
+    measured = trajectory["quality"].values == 0
+    heights = trajectory["y"].values[measured]
+    span = float(np.ptp(heights)) if heights.size else 0.0
+    return measured, span, f"it was measured in {int(measured.sum())} of {measured.size} frames, over {span:.3g} m of height"
+
+
+def analysis_refusal(message, trajectory):
+    """A video's refusal by the analysis (``message``: no bounce, too few samples in a flight, ...) with
+    what the tracker measured and the options that help, when the ball was measured in fewer than
+    :data:`WELL_TRACKED_FRACTION` of the frames: then the tracking, not the drop, is the first cause.
+
+    Parameters
+    ----------
+    message : str
+        The analysis's one-line refusal.
+    trajectory : xarray.Dataset
+        The video's trajectory (``y`` in m, ``quality`` 0 for a measured frame).
+
+    Returns
+    -------
+    str
+        One line.
+    """
+    measured, _, found = _measured(trajectory)
+    if measured.size and measured.mean() >= WELL_TRACKED_FRACTION:
+        return message
+    return (f"{message}: {found} (the tracker lost the ball in its flights or followed something else); "
             f"{TRACKER_HELP}")
 
 
