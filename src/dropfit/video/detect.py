@@ -105,8 +105,13 @@ MAX_STREAK_TRAVEL_RATIO = 1.3
 #: its length (plus half a pixel) from its middle.
 MAX_STREAK_ASYMMETRY = 0.05
 
-#: A ball whose measured area is below this fraction of the expected area is partly hidden.
+#: A ball whose measured area is below this fraction of the expected area is partly hidden ...
 OCCLUDED_AREA_FRACTION = 0.9
+#: ... or, where its radius scatters from frame to frame (a few px across, codec blur), whose radius
+#: falls short of the expected one by more than this many times that scatter, up to
+#: MAX_RADIUS_DEFICIT_FRACTION of it (a 4.6 px ball's radius scatters by 0.13 px: 0.35 px short is noise).
+RADIUS_SPREAD_SIGMAS = 3.0
+MAX_RADIUS_DEFICIT_FRACTION = 0.1
 
 #: Half-length of the rays along which an outline point is placed where the coverage crosses ½, px.
 EDGE_RAY_HALF_LENGTH_PX = 3.0
@@ -329,7 +334,7 @@ def _is_streak(filled, contrast, radius_ref_px, motion_px):
 
 
 def measure_ball(grey, background, threshold_grey, centre_guess, radius_ref_px=None,
-                 image_edges=(True, True, True, True), motion_px=None):
+                 image_edges=(True, True, True, True), motion_px=None, radius_spread_px=0.0):
     """Sub-pixel centre and radius of the ball in one (window of a) frame.
 
     A pure function of its arguments.
@@ -350,6 +355,10 @@ def measure_ball(grey, background, threshold_grey, centre_guess, radius_ref_px=N
         Predicted displacement (dx, dy) of the ball over one frame interval, px; with
         ``radius_ref_px``, a blob that is the ball blurred along it (:func:`_is_streak`) is measured
         as ``blurred``.
+    radius_spread_px : float
+        Scatter (standard deviation) of the ball's measured radius from frame to frame, px: a radius
+        short of ``radius_ref_px`` by less than ``RADIUS_SPREAD_SIGMAS`` of it is not taken for a
+        partly hidden ball.
 
     Returns
     -------
@@ -488,8 +497,11 @@ def measure_ball(grey, background, threshold_grey, centre_guess, radius_ref_px=N
         return BallMeasurement(x, y, radius_ref_px, QUALITY_BLURRED, truncated)
     radius = math.sqrt(area / math.pi)
     quality = QUALITY_OK
-    if radius_ref_px and area < OCCLUDED_AREA_FRACTION * math.pi * radius_ref_px ** 2:
-        quality = QUALITY_OCCLUDED
+    if radius_ref_px:
+        deficit = max((1.0 - math.sqrt(OCCLUDED_AREA_FRACTION)) * radius_ref_px,
+                      min(RADIUS_SPREAD_SIGMAS * radius_spread_px, MAX_RADIUS_DEFICIT_FRACTION * radius_ref_px))
+        if radius < radius_ref_px - deficit:
+            quality = QUALITY_OCCLUDED
     return BallMeasurement(x, y, radius, quality, truncated)
 
 

@@ -43,6 +43,7 @@ import numpy as np
 import pandas as pd
 
 from ..errors import InputError, shown_path
+from ..numerics import robust_sigma
 from ..files import check_input_file
 from .background import (BACKGROUND_SAMPLES, Background, background_without_ball, estimate_background, grey_uint8,
                          to_grey)
@@ -67,6 +68,9 @@ DUPLICATE_STRIDE_PX = 16
 STILL_BALL_STEP_PX = 0.1
 #: Found centres older than this many frames are not used to predict the next one.
 HISTORY_FRAMES = 6
+#: The scatter of the ball's radius (passed to :func:`dropfit.video.detect.measure_ball`) is read from
+#: this many of its recent ``ok`` radii or more.
+MIN_RADII_FOR_SPREAD = 4
 #: A ball with a hand's pixels (:func:`dropfit.video.contrast.hand_pixels`) within this of its edge is
 #: held or touched: flagged occluded, px.
 HAND_TOUCH_PX = 2.0
@@ -166,6 +170,7 @@ class BallTracker:
         self.expected_radius_px = expected_radius_px
         self._radii = []
         self._radius_ref = None
+        self._radius_spread = 0.0
         self._history = []  # (frame index, x, y) of the last found balls
         self._previous = None
         self._index = -1
@@ -215,7 +220,7 @@ class BallTracker:
                                                  self.ball_bgr, hand)
         edges = (x0 == self.left, y0 == self.top, x1 == self.right, y1 == self.bottom)
         result = measure_ball(image, background, self.contrast.threshold, (x_c - x0, y_c - y0), self.radius_ref_px,
-                              edges, motion_px)
+                              edges, motion_px, self._radius_spread)
         if result is None:
             return None
         if window.ndim == 3:
@@ -339,6 +344,7 @@ class BallTracker:
         if result.quality == QUALITY_OK:
             self._radii = (self._radii + [result.radius_px])[-15:]
             self._radius_ref = float(np.median(self._radii))
+            self._radius_spread = robust_sigma(np.array(self._radii)) if len(self._radii) >= MIN_RADII_FOR_SPREAD else 0.0
         return result.x_px, result.y_px, result.radius_px, result.quality, result.centre_se_px, result.fit_rms_px
 
 
