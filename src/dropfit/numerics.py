@@ -38,8 +38,8 @@ def robust_sigma(values, centre=None):
     return MAD_SCALE * float(np.median(np.abs(values - centre)))
 
 
-def least_squares_covariance(jacobian, residuals, n_parameters=None):
-    """Parameter covariance σ² (JᵀJ)⁻¹ of a least-squares fit, σ² from its residuals.
+def least_squares_covariance(jacobian, residuals, n_parameters=None, sigma_floor=0.0):
+    """Parameter covariance σ² (JᵀJ)⁻¹ of a least-squares fit, σ² from its residuals (at least ``sigma_floor``²).
 
     Parameters
     ----------
@@ -49,6 +49,8 @@ def least_squares_covariance(jacobian, residuals, n_parameters=None):
         Residuals at the minimum, shape (n,) (any unit).
     n_parameters : int, optional
         Parameters fitted, for the degrees of freedom n − p; default p, the columns of J.
+    sigma_floor : float
+        Least σ (the residuals' unit): a few residuals can lie closer to the fit than the noise.
 
     Returns
     -------
@@ -58,7 +60,7 @@ def least_squares_covariance(jacobian, residuals, n_parameters=None):
     residuals = np.asarray(residuals, dtype=float)
     p = jacobian.shape[1] if n_parameters is None else n_parameters
     dof = max(residuals.size - p, 1)
-    sigma2 = float(residuals @ residuals) / dof
+    sigma2 = max(float(residuals @ residuals) / dof, sigma_floor**2)
     # columns scaled to unit norm first: parameters of very different size (a drag k of 1e-5 1/px beside
     # an acceleration of 1e4 px/s²) would otherwise lose a direction to the pseudo-inverse's cut-off
     if hasattr(jacobian, "toarray"):  # sparse (a long log's flights): the p × p product, never an n × p copy

@@ -24,7 +24,7 @@ import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
 
 from ..errors import InputError, NotFreeFallError
-from ..numerics import linear_fit, robust_sigma, running_min
+from ..numerics import least_squares_covariance, robust_sigma, running_min
 from .flights import MIN_SAMPLES_PER_FLIGHT, shared_acceleration
 
 #: A dip must fall and rise by this many noise standard deviations to count as an impact.
@@ -287,14 +287,12 @@ def find_release(t, y, noise, dip, acceleration):
     while True:
         design = np.vstack([np.column_stack([np.ones(end - start), tau[start:end], tau[start:end] ** 2]), prior_row])
         target = np.append(y[start:end], prior_target)
-        coef, covariance = linear_fit(design, target)
+        coef, *_ = np.linalg.lstsq(design, target, rcond=None)
         # a parabola misses a long fall with drag (by 0.3 mm over 254 cm): judge by what it misses so far
         scale = max(noise, robust_sigma(y[start:end] - design[:-1] @ coef))
-        # the fit's covariance takes σ from a few residuals: on a short stretch that fall close to
-        # its parabola it is too small, and the extrapolation fails samples of the fall (a clip's
-        # release was read 0.4 s late); σ is never less than the noise
-        fit_variance = float(np.sum((target - design @ coef) ** 2)) / max(end - start - 2, 1)
-        covariance = covariance * max(1.0, scale**2 / max(fit_variance, np.finfo(float).tiny))
+        # σ from a few residuals of a short stretch lying close to its parabola is too small, and the
+        # extrapolation then fails samples of the fall (a clip's release was read 0.4 s late): σ ≥ scale
+        covariance = least_squares_covariance(design, target - design @ coef, sigma_floor=scale)
         earlier = np.column_stack([np.ones(start), tau[:start], tau[:start] ** 2])
         predicted_variance = np.einsum("ij,jk,ik->i", earlier, covariance, earlier)
         misfit = np.abs(y[:start] - earlier @ coef) > RELEASE_SIGMAS * np.sqrt(scale**2 + predicted_variance)

@@ -188,7 +188,8 @@ def _measured(trajectory):
     measured = trajectory["quality"].values == 0
     heights = trajectory["y"].values[measured]
     span = float(np.ptp(heights)) if heights.size else 0.0
-    return measured, span, f"it was measured in {int(measured.sum())} of {measured.size} frames, over {span:.3g} m of height"
+    words = f"it was measured in {int(measured.sum())} of {measured.size} frames, over {span:.3g} m of height"
+    return measured, span, words
 
 
 def analysis_refusal(message, trajectory):

@@ -43,8 +43,8 @@ import numpy as np
 import pandas as pd
 
 from ..errors import InputError, shown_path
-from ..numerics import robust_sigma
 from ..files import check_input_file
+from ..numerics import robust_sigma
 from .background import (BACKGROUND_SAMPLES, Background, background_without_ball, estimate_background, grey_uint8,
                          to_grey)
 from .contrast import (CHANNELS, CHROMA, GREY, Contrast, available_contrasts, contrast_of, frame_gain, hand_pixels,
@@ -344,7 +344,8 @@ class BallTracker:
         if result.quality == QUALITY_OK:
             self._radii = (self._radii + [result.radius_px])[-15:]
             self._radius_ref = float(np.median(self._radii))
-            self._radius_spread = robust_sigma(np.array(self._radii)) if len(self._radii) >= MIN_RADII_FOR_SPREAD else 0.0
+            enough = len(self._radii) >= MIN_RADII_FOR_SPREAD
+            self._radius_spread = robust_sigma(self._radii, centre=self._radius_ref) if enough else 0.0
         return result.x_px, result.y_px, result.radius_px, result.quality, result.centre_se_px, result.fit_rms_px
 
 
