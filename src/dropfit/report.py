@@ -444,6 +444,7 @@ def _draw_speed_panel(ax_e, fit, impacts):
     ax_e.legend(loc="best", fontsize=8)
 
 
+@plt.rc_context({"axes.titley": 1.0})  # titles at a set height: not placed above each axis's ticks at every draw
 def _figure_png(trajectory, flights, impacts, analysis, fit):
     """The four-panel report figure as PNG bytes."""
     t = trajectory["time"].values
