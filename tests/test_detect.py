@@ -6,13 +6,15 @@ over sub-frames for motion blur), a skin-coloured hand and arm from the top edge
 frame, and sensor noise independent per channel.
 """
 
+import math
+
 import cv2
 import numpy as np
 import pytest
 
 from dropfit.video.background import estimate_background
 from dropfit.errors import InputError
-from dropfit.video.detect import QUALITY_OCCLUDED, QUALITY_OK, measure_ball
+from dropfit.video.detect import QUALITY_OCCLUDED, QUALITY_OK, QUALITY_SHADED, measure_ball
 from dropfit.video.limits import check_recording
 from dropfit.video.track import TrackerHints, track_frames, usable_rows
 from helpers import centre_errors, disc_coverage, rms
@@ -30,6 +32,7 @@ BLUR_TOLERANCE_PX = 0.3  # motion blur over 0.8 frame intervals, strong shadow
 FLICKER_TOLERANCE_PX = 0.1
 ISOLUMINANT_TOLERANCE_PX = 0.15  # the ball differs from the wall in colour, hardly in brightness
 HAND_TOLERANCE_PX = 0.1  # clean frames after the hand has gone
+SHADED_TOLERANCE_PX = 0.3  # a light ball measured on its lit side, in its soft shadow
 
 
 def board(rng, bgr, texture=3.0):
@@ -264,3 +267,43 @@ def test_a_small_balls_radius_scatter_is_not_taken_for_a_hidden_part():
     assert measure_ball(hidden, background, 20.0, (20.0, 20.0), 4.54,
                         radius_spread_px=0.15).quality == QUALITY_OCCLUDED
     assert measure_ball(hidden, background, 20.0, (20.0, 20.0), 4.54, radius_spread_px=1.0).quality == QUALITY_OCCLUDED
+
+
+def draw_shaded_clip(rng, n=30):
+    """A white ball lit from the upper left before a light grey wall (uint8 BGR frames, true centres):
+    the ball fades from 245 grey levels at its lit side to 175 at its shaded side (the wall is 195),
+    and its soft shadow darkens the wall about it over twice its radius, below and to the right."""
+    wall = board(rng, (195.0, 195.0, 195.0))
+    rows, columns = np.mgrid[: SIZE[0], : SIZE[1]]
+    frames, truth = [], []
+    for k in range(n):
+        cx, cy = path(k)
+        halo = np.exp(-((columns - cx - 0.3 * RADIUS_PX) ** 2 + (rows - cy - 0.3 * RADIUS_PX) ** 2)
+                      / (2.0 * RADIUS_PX ** 2))
+        scene = wall * (1.0 - 0.2 * halo)[:, :, None]
+        # shading along the light's direction: 1 at the lit rim, 0 at the shaded one
+        lit = np.clip(0.5 - ((columns - cx) + (rows - cy)) / (2.0 * math.sqrt(2.0) * RADIUS_PX), 0.0, 1.0)
+        ball = (175.0 + 70.0 * lit)[:, :, None]
+        a = disc_coverage(SIZE, cx, cy, RADIUS_PX)[:, :, None]
+        image = scene * (1.0 - a) + ball * a + rng.normal(0.0, NOISE_GREY, wall.shape)
+        frames.append(np.clip(np.round(image), 0, 255).astype(np.uint8))
+        truth.append((cx, cy))
+    return frames, np.array(truth)
+
+
+def test_a_light_ball_merged_with_its_soft_shadow_is_measured_on_its_lit_side(capsys):
+    """Decision: a white ball before a light grey wall, lit from one side, is as dark as the wall on its
+    shaded side and sits in its own soft shadow, so that no channel sees it alone (white on grey has no
+    hue). Where it is lighter than the wall it is measured: the outline of its lit side, where the contrast
+    falls fastest, fitted with a circle (``shaded``), its radius fitted in the first frames, then held."""
+    rng = np.random.default_rng(53)
+    frames, truth = draw_shaded_clip(rng)
+    table = tracked(frames)
+    usable = usable_rows(table)
+    errors = centre_errors(table, truth)
+    shaded = table["quality"].to_numpy() == QUALITY_SHADED
+    report(capsys, f"[{table.attrs['contrast']}] white ball in its soft shadow: {shaded.sum()}/{len(table)} shaded, "
+                   f"{usable.sum()} usable, centre RMS {rms(errors[usable]):.3f} px, "
+                   f"max {errors[usable].max():.3f} px, radius {np.median(table['radius_px'][shaded]):.2f} px")
+    assert usable.sum() >= 0.8 * len(table)
+    assert rms(errors[usable]) <= SHADED_TOLERANCE_PX and errors[usable].max() <= 2 * SHADED_TOLERANCE_PX

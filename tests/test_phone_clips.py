@@ -85,12 +85,13 @@ def test_phone_clip_numbers(tmp_path, preset, options, impacts_checked):
 
 
 @pytest.mark.parametrize("preset, seed, min_fraction", [
-    # measured (seed, downscale 0.5): 80 of 80, 117 of 131, 83 of 154 visible free frames usable; the
-    # white ball's clip repeats every other frame of its 30 Hz capture, and the repeats that the codec
-    # coded again are found only in part: they count as not usable here
+    # measured (seed, downscale 0.5): 80 of 80, 129 of 131, 108 of 154 visible free frames usable (the white
+    # ball in grey levels, measured on its lit side: 83 in chroma, where it shows over the table only, before
+    # the lit side was measured); the white ball's clip repeats every other frame of its 30 Hz capture, and
+    # the repeats that the codec coded again are found only in part: they count as not usable here
     ("green_board_avi", 1, 0.95),
-    ("yellow_green_tape", 1, 0.85),
-    ("white_pingpong_mov", 1, 0.5),
+    ("yellow_green_tape", 1, 0.9),
+    ("white_pingpong_mov", 1, 0.65),
 ])
 def test_phone_clip_ball_is_tracked_in_colour(tmp_path, preset, seed, min_fraction, capsys):
     """The ball a phone films (green on a white board with its shadow touching it and a hand catching it;

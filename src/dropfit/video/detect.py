@@ -27,6 +27,15 @@ Quality flags, one per frame (column ``quality``):
     when it need not fix the radius too), else fitted. Column ``centre_se_px`` gives the fit's
     standard error of the centre; ``fit_rms_px`` the RMS distance of the outline points from the
     circle.
+``shaded``
+    A ball lighter than the scene merged with its own (darker) shadow, as a white ball lit from one side
+    before a light wall is: its blob holds pixels lighter and darker than the scene, and its shaded
+    side can be as dark as the wall. The centre comes from a geometric circle fit to its lit side's
+    outline, where the contrast falls fastest along rays from it (:func:`_fit_lit_side`); the radius is
+    fitted in the first such frames and then held (``shaded_radius_px``). Once a clip's balls are
+    shaded, every ball lighter than the scene is measured so, alike (the coverage centroid of a ball
+    lit from one side is off towards the light). ``centre_se_px`` and ``fit_rms_px`` as for
+    ``partial``.
 ``occluded``
     The ball's blob is merged with another object (a hand holding it, or the ball's own shadow)
     or is much smaller than expected (something in front of it). The centre and radius come from
@@ -63,7 +72,7 @@ from .opencv import cv2
 # the flags documented above, kept importable from here; defined apart so that reading a tracked
 # table does not load OpenCV
 from .quality import (QUALITY_BLURRED, QUALITY_DUPLICATE, QUALITY_LOST, QUALITY_OCCLUDED, QUALITY_OK,  # noqa: F401
-                      QUALITY_PARTIAL)
+                      QUALITY_PARTIAL, QUALITY_SHADED)
 
 #: A blob whose chromaticity is farther than this from the ball's given colour is not the ball (the share
 #: of a channel in the sum: a red ball is about (0.14, 0.14, 0.71), a green one (0.2, 0.6, 0.2)).
@@ -118,6 +127,21 @@ EDGE_RAY_HALF_LENGTH_PX = 3.0
 #: The ball is measured on its blob's box and this margin each way, px: more than the dilations about the
 #: blob (3 px), a neighbour's dilation (2 px) and the edge rays (EDGE_RAY_HALF_LENGTH_PX) reach.
 BLOB_MARGIN_PX = 8
+
+#: A blob of a light ball merged with its own shadow holds at least SHADOW_PIXEL_FRACTION of pixels darker
+#: than the scene and LIT_PIXEL_FRACTION lighter (beyond the threshold; a soft shadow's halo can be ten times
+#: the ball's lit part): then the ball's lit side is measured alone.
+SHADOW_PIXEL_FRACTION = 0.2
+LIT_PIXEL_FRACTION = 0.05
+#: Rays (count) from the ball along which the lit side's outline is looked for, between LIT_RAY_SPAN times
+#: the radius: where the contrast falls fastest going out.
+LIT_RAYS = 72
+LIT_RAY_SPAN = (0.5, 1.5)
+#: Rays whose fastest fall is at least this fraction of the steepest ray's are on the lit side; the shaded
+#: side fades into the shadow and is left out.
+LIT_EDGE_FRACTION = 0.5
+#: Passes of outline and fit, each from the last fit's centre (the first from the lit part's centroid).
+LIT_FIT_PASSES = 3
 
 #: Outline points farther from the fitted circle than this many robust residual standard
 #: deviations (and than EDGE_OUTLIER_MIN_PX) are dropped before the final fit.
@@ -302,6 +326,120 @@ def _fit_outline(coverage, points, centre, radius, radius_ref_px):
     return fit_circle_geometric(edge[inlier, 0], edge[inlier, 1], fit[:2], fit[2], fixed)
 
 
+def _steepest_outline(contrast, centre, radius):
+    """Along ``LIT_RAYS`` rays from ``centre`` (px), the point where ``contrast`` falls fastest going out
+    between ``LIT_RAY_SPAN`` times ``radius`` (px), placed to a fraction of a sample by a parabola
+    through the fall's peak: the edge of a blurred step, whatever the levels on either side of it.
+
+    Returns
+    -------
+    (numpy.ndarray, numpy.ndarray)
+        The points (n, 2), px, and the fall at each, contrast units per px.
+    """
+    angles = np.linspace(0.0, 2.0 * np.pi, LIT_RAYS, endpoint=False)
+    step = 0.25
+    distances = np.arange(LIT_RAY_SPAN[0] * radius, LIT_RAY_SPAN[1] * radius, step)
+    cos, sin = np.cos(angles)[:, None], np.sin(angles)[:, None]
+    values = cv2.remap(contrast.astype(np.float32), (centre[0] + cos * distances).astype(np.float32),
+                       (centre[1] + sin * distances).astype(np.float32), cv2.INTER_LINEAR,
+                       borderMode=cv2.BORDER_REPLICATE)
+    fall = (values[:, :-2] - values[:, 2:]) / (2.0 * step)  # at distances[1:-1]
+    rays = np.arange(LIT_RAYS)
+    peak = np.clip(np.argmax(fall, axis=1), 1, fall.shape[1] - 2)
+    before, at, after = fall[rays, peak - 1], fall[rays, peak], fall[rays, peak + 1]
+    curvature = before - 2.0 * at + after
+    shift = np.clip(np.divide(0.5 * (before - after), curvature, out=np.zeros_like(at), where=curvature < 0), -1, 1)
+    distance = distances[peak + 1] + step * shift
+    return np.column_stack([centre[0] + cos[:, 0] * distance, centre[1] + sin[:, 0] * distance]), at
+
+
+def _fit_lit_side(contrast, start, radius_px, fixed_radius):
+    """A light ball measured on its lit side: centre x, y, radius, centre standard error and RMS residual
+    (px), as :func:`fit_circle_geometric` with the radius held at ``radius_px`` when ``fixed_radius``,
+    else fitted from it; None when fewer than 8 outline points are left.
+
+    ``contrast`` is the ball's contrast to the scene (positive on the ball), grey levels. A light ball lit
+    from one side before a light wall is lighter than the wall on its lit side only; its shaded side is
+    as dark as the wall and fades into its shadow. The lit side's outline is where the contrast falls
+    fastest along rays (:func:`_steepest_outline`), on the rays whose fall is at least
+    ``LIT_EDGE_FRACTION`` of the steepest; points off the circle are trimmed as in :func:`_fit_outline`.
+    Starts at ``start`` (x, y, px), refits ``LIT_FIT_PASSES`` times about the last centre.
+    """
+    centre, radius, fit = start, radius_px, None
+    for _ in range(LIT_FIT_PASSES):
+        points, fall = _steepest_outline(contrast, centre, radius)
+        if not fall.max() > 0:
+            return None
+        lit = points[fall >= LIT_EDGE_FRACTION * fall.max()]
+        if len(lit) < 8:
+            return None
+        fit = fit_circle_geometric(lit[:, 0], lit[:, 1], centre, radius, fixed_radius)
+        residual = np.hypot(lit[:, 0] - fit[0], lit[:, 1] - fit[1]) - fit[2]
+        inlier = np.abs(residual) <= max(EDGE_OUTLIER_SIGMAS * robust_sigma(residual), EDGE_OUTLIER_MIN_PX)
+        if inlier.sum() < 8:
+            return None
+        fit = fit_circle_geometric(lit[inlier, 0], lit[inlier, 1], fit[:2], fit[2], fixed_radius)
+        if not MIN_RADIUS_PX <= fit[2] <= 2.0 * radius:
+            return None
+        centre, radius = fit[:2], fit[2]
+    return fit
+
+
+def _shaded_ball(diff, blob, threshold_grey, radius_px=None):
+    """The ball of a blob that is a light ball merged with its own shadow, by :func:`_fit_lit_side`; None
+    when the blob is not one, or the fit fails.
+
+    A shadow is darker than the scene, so a ball lighter than the scene merged with it makes a blob of
+    both signs: at least ``LIT_PIXEL_FRACTION`` of its pixels lighter, and ``SHADOW_PIXEL_FRACTION``
+    darker, than the scene by the threshold. The shadow's halo can make the blob round, and the ball's
+    shaded side can be as dark as the scene: the ball is measured on the blob's largest lighter part (a
+    hand, the other thing a ball merges with, is taken out of the frame by its colour first). With
+    ``radius_px`` given (a clip whose balls are shaded), any blob with a lighter part is measured so.
+
+    Parameters
+    ----------
+    diff : numpy.ndarray
+        The frame less the background, grey levels.
+    blob : numpy.ndarray
+        bool, the merged blob (``|diff|`` above the threshold).
+    threshold_grey : float
+        Foreground threshold, grey levels.
+    radius_px : float, optional
+        The ball's radius, px: held when given, else fitted from the lighter part's equivalent radius
+        (that of its area).
+    """
+    lit = _lit_part(diff, blob, threshold_grey, shadow_needed=radius_px is None)
+    if lit is None:
+        return None
+    moments = cv2.moments(lit, binaryImage=True)
+    start = (moments["m10"] / moments["m00"], moments["m01"] / moments["m00"])
+    equivalent = math.sqrt(moments["m00"] / math.pi)
+    return _fit_lit_side(diff, start, radius_px or equivalent, radius_px is not None)
+
+
+def _lit_part(diff, blob, threshold, shadow_needed=True):
+    """The largest lighter part (uint8 mask) of a blob that is a light ball merged with its own shadow: at
+    least ``LIT_PIXEL_FRACTION`` of its pixels lighter than the scene by ``threshold`` (and ``MIN_RADIUS_PX``
+    across), and ``SHADOW_PIXEL_FRACTION`` darker (unless not ``shadow_needed``); None for any other blob.
+
+    Parameters
+    ----------
+    diff : numpy.ndarray
+        The contrast to the scene, signed.
+    blob : numpy.ndarray
+        bool, the blob (``|diff|`` above ``threshold``).
+    threshold : float
+        The foreground threshold, in ``diff``'s units.
+    """
+    area = np.count_nonzero(blob)
+    lit = (blob & (diff > threshold)).astype(np.uint8)
+    if (np.count_nonzero(lit) < max(LIT_PIXEL_FRACTION * area, math.pi * MIN_RADIUS_PX ** 2)
+            or shadow_needed and np.count_nonzero(blob & (diff < -threshold)) < SHADOW_PIXEL_FRACTION * area):
+        return None
+    count, labels, stats, _ = cv2.connectedComponentsWithStats(lit, connectivity=8)
+    return (labels == 1 + int(np.argmax(stats[1:, cv2.CC_STAT_AREA]))).astype(np.uint8)
+
+
 def _is_streak(filled, contrast, radius_ref_px, motion_px):
     """Whether a blob (uint8 mask) is a ball of radius ``radius_ref_px`` blurred along ``motion_px``.
 
@@ -334,7 +472,8 @@ def _is_streak(filled, contrast, radius_ref_px, motion_px):
 
 
 def measure_ball(grey, background, threshold_grey, centre_guess, radius_ref_px=None,
-                 image_edges=(True, True, True, True), motion_px=None, radius_spread_px=0.0):
+                 image_edges=(True, True, True, True), motion_px=None, radius_spread_px=0.0,
+                 shaded_radius_px=None):
     """Sub-pixel centre and radius of the ball in one (window of a) frame.
 
     A pure function of its arguments.
@@ -359,6 +498,10 @@ def measure_ball(grey, background, threshold_grey, centre_guess, radius_ref_px=N
         Scatter (standard deviation) of the ball's measured radius from frame to frame, px: a radius
         short of ``radius_ref_px`` by less than ``RADIUS_SPREAD_SIGMAS`` of it is not taken for a
         partly hidden ball.
+    shaded_radius_px : float, optional
+        The radius of the clip's balls measured on their lit sides (``shaded``), px: held, and every
+        ball lighter than the scene is measured so, its shadow merged or not. Without it, only a ball
+        merged with its shadow is, with the radius fitted.
 
     Returns
     -------
@@ -402,6 +545,14 @@ def measure_ball(grey, background, threshold_grey, centre_guess, radius_ref_px=N
                                 image_edges[2] and right_px == window_width,
                                 image_edges[3] and bottom_px == window_height)
 
+    if not at_image_edge:
+        # a ball lighter than the scene merged with its darker shadow can be round in |contrast| with the
+        # shadow's halo about it: measured on its lit side alone
+        shaded = _shaded_ball(diff, labels == label, threshold_grey, shaded_radius_px)
+        if shaded is not None:
+            cx, cy, r, centre_se, fit_rms = shaded
+            return BallMeasurement(float(cx + left_px), float(cy + top_px), float(r), QUALITY_SHADED, truncated,
+                                   centre_se, fit_rms)
     blob = (labels == label).astype(np.uint8)
     filled, _ = _fill_largest(blob)
 
@@ -554,7 +705,18 @@ def find_blobs(frame, background, contrast, expected_radius_px=None, gain=1.0):
         x0, y0, w, h, area = stats[label]
         if area < min_area:
             break
-        blob = np.pad((labels[y0:y0 + h, x0:x0 + w] == label).astype(np.uint8), 1)
+        in_box = labels[y0:y0 + h, x0:x0 + w] == label
+        lit = _lit_part(signal[y0:y0 + h, x0:x0 + w], in_box, contrast.threshold)
+        if lit is not None:
+            # a light ball merged with its shadow, where its lit part is: not a lone disc (a channel that
+            # leaves the shadow out sees one), but what measure_ball measures on its lit side
+            ys, xs = np.nonzero(lit)
+            radius = math.sqrt(np.count_nonzero(lit) / math.pi) * scale
+            if radius >= MIN_RADIUS_PX:
+                blobs.append(((x0 + xs.mean() + 0.5) * scale - 0.5, (y0 + ys.mean() + 0.5) * scale - 0.5,
+                              expected_radius_px or radius, False))
+            continue
+        blob = np.pad(in_box.astype(np.uint8), 1)
         inscribed = cv2.distanceTransform(blob, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
         r_in = float(inscribed.max())
         iy, ix = np.unravel_index(int(np.argmax(inscribed)), inscribed.shape)

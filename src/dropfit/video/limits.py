@@ -35,7 +35,8 @@ import numpy as np
 from ..analysis import estimate_noise
 from ..errors import InputError, shown_path
 from ..physics import STANDARD_GRAVITY_M_S2
-from .quality import CLEAN_QUALITIES, QUALITY_DUPLICATE, QUALITY_LOST, QUALITY_OCCLUDED, QUALITY_PARTIAL
+from .quality import (QUALITY_DUPLICATE, QUALITY_LOST, QUALITY_OCCLUDED, QUALITY_PARTIAL, QUALITY_SHADED,
+                      usable_rows)
 
 #: Smallest tracked ball radius, px. Sweep: a ball drawn with radius 1 px is never found and one of
 #: 1.25 px in no clean frame; drawn with 1.5–2 px it is tracked as 2.2–2.3 px (the edge threshold
@@ -81,15 +82,16 @@ def recording_measures(table):
     Returns
     -------
     dict
-        ``ball_radius_px`` (median tracked radius of the clean frames, ``ok`` and ``blurred``, px),
-        ``clean_fraction`` (clean frames over the frames, duplicates left out, from the first clean frame to the last:
+        ``ball_radius_px`` (median tracked radius of the clean frames, those usable for a trajectory:
+        :func:`dropfit.video.quality.usable_rows`, px), ``clean_fraction`` (clean frames over the frames,
+        duplicates left out, from the first clean frame to the last:
         a hand holding the ball before it or an empty scene after it does not count against the
         recording), ``clean_frames`` (their number), ``centre_noise_px`` (robust noise of the clean frames' centre rows, px),
         ``travel_px`` (range of those rows, px) and ``noise_to_travel`` (their ratio). Radius,
         noise and travel are NaN when no frame is clean.
     """
     kept = table[table["quality"] != QUALITY_DUPLICATE]
-    is_clean = kept["quality"].isin(CLEAN_QUALITIES).to_numpy()
+    is_clean = usable_rows(kept)
     clean = kept[is_clean]
     rows = clean["y_px"].to_numpy(float)
     span = np.flatnonzero(is_clean)
@@ -230,11 +232,14 @@ def unclean_frames(table):
         E.g. "the ball merged with something (its shadow, a hand) in 85 % of the frames, not found in
         5 %; tracked in chroma".
     """
-    quality = table["quality"][table["quality"] != QUALITY_DUPLICATE]
-    total = max(len(quality), 1)
+    kept = table["quality"] != QUALITY_DUPLICATE
+    total = max(int(kept.sum()), 1)
+    quality = table["quality"][kept & ~usable_rows(table)]
     parts = []
     for flag, words in ((QUALITY_OCCLUDED, "merged with something (its shadow, a hand) or partly hidden"),
-                        (QUALITY_PARTIAL, "cut by the image border"), (QUALITY_LOST, "not found")):
+                        (QUALITY_PARTIAL, "cut by the image border"),
+                        (QUALITY_SHADED, "merged with its shadow and too blurred to measure on its lit side"),
+                        (QUALITY_LOST, "not found")):
         count = int((quality == flag).sum())
         if count:
             parts.append(f"{words} in {count / total:.0%} of the frames")

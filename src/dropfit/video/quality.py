@@ -1,9 +1,14 @@
 """The tracked table's quality flags (one per frame, column ``quality``; their meaning is in
-:mod:`dropfit.video.detect`) and the tracked centre's error correlation.
+:mod:`dropfit.video.detect`), which rows are usable for a trajectory, and the tracked centre's error
+correlation.
 
-A module of constants only, so that what reads a tracked table or analyses a video's trajectory
+Apart from the tracker, so that what reads a tracked table or analyses a video's trajectory
 (:mod:`dropfit.video.limits`, :mod:`dropfit.pipeline`) does not load OpenCV or PyAV.
 """
+
+import math
+
+import numpy as np
 
 QUALITY_OK = "ok"
 
@@ -17,6 +22,8 @@ QUALITY_DUPLICATE = "duplicate"
 
 QUALITY_BLURRED = "blurred"
 
+QUALITY_SHADED = "shaded"
+
 #: Frames measured cleanly: a lone ball whose centre is its coverage-weighted centroid.
 CLEAN_QUALITIES = (QUALITY_OK, QUALITY_BLURRED)
 
@@ -26,3 +33,43 @@ CLEAN_QUALITIES = (QUALITY_OK, QUALITY_BLURRED)
 #: quality 90): 0.08–0.24 per clip, about 0.17 on average (tests/test_tracking.py). Taken as 0.2: with
 #: independent errors assumed, the intervals of 200 small clips covered the truth only ~90 %.
 TRACKED_CENTRE_CORRELATION = 0.2
+
+#: A partial frame enters the trajectory when its circle fit's centre standard error and its RMS
+#: residual are at most these, px.
+MAX_PARTIAL_CENTRE_SE_PX = 0.1
+MAX_PARTIAL_FIT_RMS_PX = 0.5
+#: ... and when its radius is within this of the clean frames' (a free-radius fit to a short arc can
+#: settle on a wrong circle with small residuals), px.
+MAX_PARTIAL_RADIUS_MISMATCH_PX = 0.5
+
+
+def usable_rows(table, radius_px=None):
+    """Rows whose centre is good for a trajectory: ``ok``, ``blurred``, and ``partial`` or ``shaded`` with a
+    good circle fit.
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        As returned by :func:`dropfit.video.track.track_frames` or :func:`dropfit.video.track.track_video`.
+    radius_px : float, optional
+        The ball's radius, px, when known; by default the median radius of the ``ok`` rows.
+
+    Returns
+    -------
+    numpy.ndarray
+        Boolean mask, one per row: ``ok``, ``blurred``, or ``partial`` or ``shaded`` with ``centre_se_px`` ≤
+        ``MAX_PARTIAL_CENTRE_SE_PX``, ``fit_rms_px`` ≤ ``MAX_PARTIAL_FIT_RMS_PX`` and a radius
+        within ``MAX_PARTIAL_RADIUS_MISMATCH_PX`` of ``radius_px`` (of the median ``shaded`` row's for a
+        ``shaded`` row). Without a radius (no ``ok`` row and none given) no ``partial`` row is usable.
+    """
+    quality = table["quality"].to_numpy()
+    radii = table["radius_px"].to_numpy()
+    ok, shaded = quality == QUALITY_OK, quality == QUALITY_SHADED
+    if radius_px is None:
+        radius_px = float(np.median(radii[ok])) if ok.any() else math.nan
+    # a shaded ball's lit side has an edge of its own: its radius is checked against the shaded balls'
+    reference = np.where(shaded, float(np.median(radii[shaded])) if shaded.any() else math.nan, radius_px)
+    good_fit = ((table["centre_se_px"].to_numpy() <= MAX_PARTIAL_CENTRE_SE_PX)
+                & (table["fit_rms_px"].to_numpy() <= MAX_PARTIAL_FIT_RMS_PX)
+                & (np.abs(radii - reference) <= MAX_PARTIAL_RADIUS_MISMATCH_PX))
+    return np.isin(quality, CLEAN_QUALITIES) | ((quality == QUALITY_PARTIAL) | shaded) & good_fit

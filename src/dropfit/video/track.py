@@ -6,7 +6,7 @@ The camera is static, so the scene without the ball is one image, the background
 lone, roughly circular blobs (:func:`dropfit.video.detect.find_ball`). Afterwards the position is
 predicted from the last three positions (constant acceleration) and only a window of about four
 radii around the prediction is measured (:func:`dropfit.video.detect.measure_ball`, which gives the
-quality flags ``ok``, ``blurred``, ``partial`` and ``occluded``). The tracker adds two flags:
+quality flags ``ok``, ``blurred``, ``partial``, ``shaded`` and ``occluded``). The tracker adds two flags:
 
 ``lost``
     No ball was found (it left the image, or it is hidden): ``x_px``, ``y_px`` and ``radius_px``
@@ -20,8 +20,8 @@ quality flags ``ok``, ``blurred``, ``partial`` and ``occluded``). The tracker ad
     (more than ``STILL_BALL_STEP_PX`` a frame between its last two found centres): a ball at rest
     in a noise-free video gives identical frames that are true ones.
 
-``ok`` and ``blurred`` rows are meant for fitting trajectories, and so are ``partial`` rows whose
-``centre_se_px`` and ``fit_rms_px`` are small (:func:`usable_rows`).
+``ok`` and ``blurred`` rows are meant for fitting trajectories, and so are ``partial`` and ``shaded``
+rows whose ``centre_se_px`` and ``fit_rms_px`` are small (:func:`usable_rows`).
 
 Ball in the background. A ball that is in view for the whole clip and moves less than a few
 diameters (a close-up of a contact) covers some pixels in more than half of the background
@@ -54,8 +54,9 @@ from .detect import find_ball, frame_blobs, measure_ball
 from .link import extrapolated, find_flight
 from .opencv import cv2
 # the flags and the centre's correlation, kept importable from here (overlay, tests)
-from .quality import (CLEAN_QUALITIES, QUALITY_BLURRED, QUALITY_DUPLICATE, QUALITY_LOST, QUALITY_OCCLUDED,  # noqa: F401
-                      QUALITY_OK, QUALITY_PARTIAL, TRACKED_CENTRE_CORRELATION)
+from .quality import (CLEAN_QUALITIES, MAX_PARTIAL_FIT_RMS_PX, QUALITY_BLURRED, QUALITY_DUPLICATE,  # noqa: F401
+                      QUALITY_LOST, QUALITY_OCCLUDED, QUALITY_OK, QUALITY_PARTIAL, QUALITY_SHADED,
+                      TRACKED_CENTRE_CORRELATION, usable_rows)
 
 COLUMNS = ["frame", "time_s", "x_px", "y_px", "radius_px", "quality", "centre_se_px", "fit_rms_px"]
 
@@ -66,11 +67,25 @@ DUPLICATE_STRIDE_PX = 16
 #: A frame identical to the previous one is not a duplicate when the ball moved less than this a frame
 #: between its last two found centres, px (a ball at rest in a noise-free video, or just released).
 STILL_BALL_STEP_PX = 0.1
+#: Qualities of a ball found alone, not merged with anything but its own shadow: a search's ball of one of
+#: these replaces a merged one.
+FOUND_ALONE = (QUALITY_OK, QUALITY_SHADED)
 #: Found centres older than this many frames are not used to predict the next one.
 HISTORY_FRAMES = 6
 #: The scatter of the ball's radius (passed to :func:`dropfit.video.detect.measure_ball`) is read from
 #: this many of its recent ``ok`` radii or more.
 MIN_RADII_FOR_SPREAD = 4
+#: A ball merged with its shadow (``shaded``) has its radius fitted to its lit side in its first frames
+#: with a good fit (RMS residual at most MAX_PARTIAL_FIT_RMS_PX); from this many on, their median is held
+#: (a held radius fixes the centre of a half-circle far better). Held apart from the ``ok`` balls' radius:
+#: the lit side's edge is not where the coverage of a whole ball crosses one half.
+SHADED_RADII = 5
+#: ... fitted while the ball moves less than this many radii a frame: a blurred ball's lit side is not a
+#: circle's, and fits a radius several per cent short (a 15 px ball streaked over half its radius: 14.0 px).
+SHADED_STILL_RADII = 0.5
+#: An ``ok`` ball smaller than this fraction of the radius fitted to shaded balls' lit sides is a part of the
+#: ball: flagged ``occluded``.
+SHADED_SIZE_FRACTION = 0.75
 #: A ball with a hand's pixels (:func:`dropfit.video.contrast.hand_pixels`) within this of its edge is
 #: held or touched: flagged occluded, px.
 HAND_TOUCH_PX = 2.0
@@ -107,13 +122,6 @@ ENOUGH_USABLE_FRACTION = 0.5
 #: background itself).
 FIXTURE_TOLERANCE_PX = 2.0
 FIXTURE_FRACTION = 0.7
-#: A partial frame enters the trajectory when its circle fit's centre standard error and its RMS
-#: residual are at most these, px.
-MAX_PARTIAL_CENTRE_SE_PX = 0.1
-MAX_PARTIAL_FIT_RMS_PX = 0.5
-#: ... and when its radius is within this of the clean frames' (a free-radius fit to a short arc can
-#: settle on a wrong circle with small residuals), px.
-MAX_PARTIAL_RADIUS_MISMATCH_PX = 0.5
 
 
 class TrackerHints(NamedTuple):
@@ -171,6 +179,8 @@ class BallTracker:
         self._radii = []
         self._radius_ref = None
         self._radius_spread = 0.0
+        self._shaded_fits = []  # radii fitted to the lit sides of the last shaded balls, px
+        self._shaded_radii = []  # ... of those that moved little (not blurred), px
         self._history = []  # (frame index, x, y) of the last found balls
         self._previous = None
         self._index = -1
@@ -186,6 +196,12 @@ class BallTracker:
     def radius_ref_px(self):
         """The expected radius, px: the median of recent ``ok`` radii, else the given one."""
         return self._radius_ref if self._radii else self.expected_radius_px
+
+    @property
+    def _shaded_radius_px(self):
+        """The radius a shaded ball's lit side is fitted with, px: the median of the first ``SHADED_RADII``
+        fitted ones once there are as many, else None (fitted)."""
+        return float(np.median(self._shaded_radii)) if len(self._shaded_radii) >= SHADED_RADII else None
 
     def _recent_history(self):
         """(frame index, x, y) of the last found balls, of the last ``HISTORY_FRAMES`` frames."""
@@ -220,7 +236,7 @@ class BallTracker:
                                                  self.ball_bgr, hand)
         edges = (x0 == self.left, y0 == self.top, x1 == self.right, y1 == self.bottom)
         result = measure_ball(image, background, self.contrast.threshold, (x_c - x0, y_c - y0), self.radius_ref_px,
-                              edges, motion_px, self._radius_spread)
+                              edges, motion_px, self._radius_spread, self._shaded_radius_px)
         if result is None:
             return None
         if window.ndim == 3:
@@ -344,10 +360,20 @@ class BallTracker:
                 reach = max(LOCAL_SEARCH_RADII * (self.radius_ref_px or result.radius_px), LOCAL_SEARCH_MIN_PX)
                 near = (result.x_px, result.y_px, reach)
             searched = self._search(frame, near)
-            if result is None or result.truncated or (searched is not None and searched.quality == QUALITY_OK):
+            if result is None or result.truncated or (searched is not None and searched.quality in FOUND_ALONE):
                 result = searched
         if result is None:
             return math.nan, math.nan, math.nan, QUALITY_LOST, math.nan, math.nan
+        if (result.quality == QUALITY_OK and self._shaded_fits
+                and result.radius_px < SHADED_SIZE_FRACTION * float(np.median(self._shaded_fits))):
+            # smaller than the circle of its own lit side: part of the ball (a light ball over a light wall
+            # and a dark floor shows only where it crosses the floor's edge)
+            result = replace(result, quality=QUALITY_OCCLUDED)
+        if (result.quality == QUALITY_SHADED and self._shaded_radius_px is None
+                and result.fit_rms_px <= MAX_PARTIAL_FIT_RMS_PX):
+            self._shaded_fits = (self._shaded_fits + [result.radius_px])[-SHADED_RADII:]
+            if len(self._recent_history()) >= 1 and self._recent_step_px() <= SHADED_STILL_RADII * result.radius_px:
+                self._shaded_radii.append(result.radius_px)
         self._history = (self._history + [(self._index, result.x_px, result.y_px)])[-3:]
         if result.quality == QUALITY_OK:
             self._radii = (self._radii + [result.radius_px])[-15:]
@@ -358,7 +384,7 @@ class BallTracker:
 
 
 def _found_or_raise(table, source):
-    if not table["quality"].isin([QUALITY_OK, QUALITY_PARTIAL, QUALITY_OCCLUDED]).any():
+    if not table["quality"].isin([QUALITY_OK, QUALITY_PARTIAL, QUALITY_SHADED, QUALITY_OCCLUDED]).any():
         raise InputError(f"{shown_path(source)}: the ball was never found (no round foreground blob in {len(table)} "
                          f"frames): it must stand out from the background and move; if it does, give its centre "
                          f"in one frame (--ball-at-px FRAME,X,Y) or its colour (--ball-colour)")
@@ -459,10 +485,16 @@ def scene_and_contrasts(samples, expected_radius_px=None, ball_colour_bgr=None):
 
 
 def _usable_and_found(rows):
-    """How many rows are usable, and in how many the ball was found (not lost, not a repeated frame)."""
+    """How many rows are usable, and in how many the ball was to be found: the frames from the first where
+    it was found (not lost, not a repeated frame) to the last, repeated frames left out (a ball lost in its
+    flights counts against a channel; one that left the view does not)."""
     table = _table(rows, np.zeros(len(rows)))
-    found = ~table["quality"].isin([QUALITY_LOST, QUALITY_DUPLICATE])
-    return int(usable_rows(table).sum()), int(found.sum())
+    quality = table["quality"]
+    found = np.flatnonzero(~quality.isin([QUALITY_LOST, QUALITY_DUPLICATE]))
+    if not found.size:
+        return int(usable_rows(table).sum()), 0
+    span = quality.iloc[found[0]:found[-1] + 1]
+    return int(usable_rows(table).sum()), int((span != QUALITY_DUPLICATE).sum())
 
 
 def _track_in_best_contrast(track, contrasts, first_rows, samples, indices, background):
@@ -586,34 +618,6 @@ def _table(rows, times_s):
                          "radius_px": np.asarray(r, float), "quality": list(quality),
                          "centre_se_px": np.asarray(centre_se, float), "fit_rms_px": np.asarray(fit_rms, float)},
                         columns=COLUMNS)
-
-
-def usable_rows(table, radius_px=None):
-    """Rows whose centre is good for a trajectory: ``ok``, ``blurred``, and ``partial`` with a good circle fit.
-
-    Parameters
-    ----------
-    table : pandas.DataFrame
-        As returned by :func:`track_frames` or :func:`track_video`.
-    radius_px : float, optional
-        The ball's radius, px, when known; by default the median radius of the ``ok`` rows.
-
-    Returns
-    -------
-    numpy.ndarray
-        Boolean mask, one per row: ``ok``, ``blurred``, or ``partial`` with ``centre_se_px`` ≤
-        ``MAX_PARTIAL_CENTRE_SE_PX``, ``fit_rms_px`` ≤ ``MAX_PARTIAL_FIT_RMS_PX`` and a radius
-        within ``MAX_PARTIAL_RADIUS_MISMATCH_PX`` of ``radius_px``. Without a radius (no ``ok``
-        row and none given) no ``partial`` row is usable.
-    """
-    quality = table["quality"].to_numpy()
-    ok = quality == QUALITY_OK
-    if radius_px is None:
-        radius_px = float(np.median(table["radius_px"].to_numpy()[ok])) if ok.any() else math.nan
-    good_fit = ((table["centre_se_px"].to_numpy() <= MAX_PARTIAL_CENTRE_SE_PX)
-                & (table["fit_rms_px"].to_numpy() <= MAX_PARTIAL_FIT_RMS_PX)
-                & (np.abs(table["radius_px"].to_numpy() - radius_px) <= MAX_PARTIAL_RADIUS_MISMATCH_PX))
-    return np.isin(quality, CLEAN_QUALITIES) | ((quality == QUALITY_PARTIAL) & good_fit)
 
 
 def track_frames(frames, times_s, expected_radius_px=None, *, background=None, source="frames", hints=None):
