@@ -9,6 +9,8 @@ cuts it out of the samples where it was tracked.
 
 from __future__ import annotations
 
+import functools
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -119,14 +121,42 @@ def to_grey(image):
     raise ValueError(f"expected a grey or BGR image, got shape {image.shape}")
 
 
+@functools.lru_cache
+def _median_network(count):
+    """The compare-exchanges of a sorting network of ``count`` values (Batcher's merge exchange, Knuth's
+    algorithm 5.2.2M) that the middle value depends on: (i, j, whether the minimum goes on to i, whether
+    the maximum goes on to j), in order.
+
+    Only the middle one of the sorted values is wanted, so exchanges it does not depend on are left out,
+    and so is the half of an exchange whose output is not used again: 52 of the 110 minima and maxima of
+    an odd-even transposition sort of 11 images.
+    """
+    pairs = []
+    t = max(math.ceil(math.log2(count)), 1)
+    p = 2 ** (t - 1)
+    while p > 0:
+        q, r, d = 2 ** (t - 1), 0, p
+        while True:
+            pairs += [(i, i + d) for i in range(count - d) if i & p == r]
+            if q == p:
+                break
+            d, q, r = q - p, q // 2, p
+        p //= 2
+    needed, network = {count // 2}, []
+    for i, j in reversed(pairs):
+        if i in needed or j in needed:
+            network.append((i, j, i in needed, j in needed))
+            needed |= {i, j}
+    return tuple(reversed(network))
+
+
 def median_uint8(images):
-    """Per-pixel median of an odd number of uint8 images (odd-even transposition sort)."""
+    """Per-pixel median of an odd number of uint8 images (a sorting network cut down to the middle value)."""
     images = list(images)
-    k = len(images)
-    for step in range(k):
-        for i in range(step % 2, k - 1, 2):
-            images[i], images[i + 1] = cv2.min(images[i], images[i + 1]), cv2.max(images[i], images[i + 1])
-    return images[k // 2]
+    for i, j, low, high in _median_network(len(images)):
+        images[i], images[j] = (cv2.min(images[i], images[j]) if low else None,
+                                cv2.max(images[i], images[j]) if high else None)
+    return images[len(images) // 2]
 
 
 def grey_uint8(image):

@@ -44,7 +44,7 @@ import pandas as pd
 
 from ..errors import InputError, shown_path
 from ..files import check_input_file
-from ..numerics import robust_sigma
+from ..numerics import fast_median, robust_sigma
 from .background import (BACKGROUND_SAMPLES, Background, background_without_ball, estimate_background, grey_uint8,
                          to_grey)
 from .contrast import (CHANNELS, CHROMA, GREY, Contrast, available_contrasts, contrast_of, frame_gain, hand_pixels,
@@ -224,14 +224,7 @@ class BallTracker:
         if result is None:
             return None
         if window.ndim == 3:
-            rows, columns = np.ogrid[:window.shape[0], :window.shape[1]]
-            core = (columns - result.x_px) ** 2 + (rows - result.y_px) ** 2 <= (0.5 * result.radius_px) ** 2
-            if core.any():
-                centre = np.median(window[core], axis=0)
-                # a ball's centre, not a hand's: held or blurred balls teach the colour too
-                if not skin_mask(np.clip(np.rint(centre), 0, 255).astype(np.uint8).reshape(1, 1, 3))[0, 0]:
-                    self._ball_colours = (self._ball_colours + [centre / self._gain])[-15:]
-                    self._ball_bgr = tuple(np.median(self._ball_colours, axis=0))
+            self._learn_colour(window, result)
         if result.quality != QUALITY_OCCLUDED and hand is not None and hand.any():
             # a hand touching the ball hides part of it, whether or not it shows in this channel
             rows, columns = np.nonzero(hand)
@@ -239,6 +232,27 @@ class BallTracker:
             if np.any((columns - result.x_px) ** 2 + (rows - result.y_px) ** 2 <= reach * reach):
                 result = replace(result, quality=QUALITY_OCCLUDED)
         return replace(result, x_px=result.x_px + x0, y_px=result.y_px + y0)
+
+    def _learn_colour(self, window, result):
+        """Take the ball's colour from a BGR window where it was measured (``result``, window px): the median
+        of the pixels within half a radius of its centre, the frame's gain divided out, unless skin-coloured."""
+        reach = abs(0.5 * result.radius_px)
+        height, width = window.shape[:2]
+        left, top, right, bottom = 0, 0, width, height
+        if math.isfinite(result.x_px) and math.isfinite(result.y_px) and math.isfinite(reach):
+            # the pixels are looked for in the box about the disc, not in the whole window
+            left, top = max(math.floor(result.x_px - reach), 0), max(math.floor(result.y_px - reach), 0)
+            right = max(min(math.ceil(result.x_px + reach) + 1, width), left)
+            bottom = max(min(math.ceil(result.y_px + reach) + 1, height), top)
+        rows, columns = np.arange(top, bottom)[:, None], np.arange(left, right)
+        core = (columns - result.x_px) ** 2 + (rows - result.y_px) ** 2 <= reach ** 2
+        if not core.any():
+            return
+        centre = fast_median(window[top:bottom, left:right][core])
+        # a ball's centre, not a hand's: held or blurred balls teach the colour too
+        if not skin_mask(np.clip(np.rint(centre), 0, 255).astype(np.uint8).reshape(1, 1, 3))[0, 0]:
+            self._ball_colours = (self._ball_colours + [centre / self._gain])[-15:]
+            self._ball_bgr = tuple(fast_median(np.array(self._ball_colours)))
 
     def _search(self, frame, near=None):
         """The ball measured where a search of the whole frame (or, ``near`` = (x, y, reach) px, of the
@@ -351,7 +365,7 @@ class BallTracker:
         self._history = (self._history + [(self._index, result.x_px, result.y_px)])[-3:]
         if result.quality == QUALITY_OK:
             self._radii = (self._radii + [result.radius_px])[-15:]
-            self._radius_ref = float(np.median(self._radii))
+            self._radius_ref = float(fast_median(np.array(self._radii)))
             enough = len(self._radii) >= MIN_RADII_FOR_SPREAD
             self._radius_spread = robust_sigma(self._radii, centre=self._radius_ref) if enough else 0.0
         return result.x_px, result.y_px, result.radius_px, result.quality, result.centre_se_px, result.fit_rms_px
