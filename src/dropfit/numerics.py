@@ -15,13 +15,14 @@ from scipy.special import chdtrc, ndtri, stdtrit
 MAD_SCALE = 1.4826
 
 
-#: Up to this many values, :func:`fast_median` sorts them instead of calling :func:`numpy.median`.
-FEW_VALUES = 64
+#: Up to this many values, :func:`fast_median` sorts them instead of calling :func:`numpy.median` (a sort
+#: of 1 000 float32 takes 8 µs, NumPy's median 23 µs).
+FEW_VALUES = 1000
 
 
 def fast_median(values):
     """``numpy.median(values, axis=0)``, the same numbers; up to ``FEW_VALUES`` values by one sort: NumPy's
-    median has 10-40 µs of overhead a call, most of its cost on the few dozen values a tracker takes the
+    median has 20 µs of overhead a call, most of its cost on the few hundred values a tracker takes the
     median of in every frame.
 
     Parameters

@@ -118,7 +118,7 @@ class Contrast:
         """Whether the channel needs the frame and the background in colour."""
         return self.name != GREY
 
-    def image(self, frame, background_grey, background_colour, gain=1.0):
+    def image(self, frame, background_grey, background_colour, gain=1.0, hand=None):
         """The frame's contrast to the background, float32, background at 0.
 
         Parameters
@@ -131,13 +131,15 @@ class Contrast:
             The background's BGR over the same window, uint8 (colour channels only).
         gain : float
             The frame's gain against the background (:func:`frame_gain`), dimensionless.
+        hand : numpy.ndarray, optional
+            The frame's hand pixels when known (:func:`hand_pixels` without the ball's colour), as in :meth:`images`.
 
         Returns
         -------
         numpy.ndarray
             float32, the window's shape without channels, grey levels.
         """
-        image, background = self.images(frame, background_grey, background_colour, gain)
+        image, background = self.images(frame, background_grey, background_colour, gain, hand=hand)
         return image - background
 
     def images(self, frame, background_grey, background_colour, gain=1.0, ball_bgr=None, hand=None):
@@ -425,7 +427,7 @@ def _gain_reference(background_colour):
     return lit, background[lit], power[lit]
 
 
-def contrast_of(name, samples, background):
+def contrast_of(name, samples, background, gains=None):
     """The channel ``name`` with its noise and threshold measured on the background's samples.
 
     Parameters
@@ -436,6 +438,8 @@ def contrast_of(name, samples, background):
         The frames whose median is the background (BGR uint8 for the colour channels).
     background : dropfit.video.background.Background
         The background.
+    gains : sequence of float, optional
+        The samples' gains (:func:`frame_gain`) when known.
 
     Returns
     -------
@@ -451,8 +455,10 @@ def contrast_of(name, samples, background):
     colour = background.colour[::s, ::s]
     values = []
     channel = Contrast(name, 0.0, 0.0)
-    for sample in samples:
-        image = channel.image(sample[::s, ::s], None, colour, frame_gain(sample, scene_colour(background)))
+    if gains is None:
+        gains = [frame_gain(sample, scene_colour(background)) for sample in samples]
+    for sample, gain in zip(samples, gains):
+        image = channel.image(sample[::s, ::s], None, colour, gain)
         values.append(image.ravel())
     values = np.concatenate(values)
     if name == CHROMA:

@@ -54,11 +54,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
 from ..numerics import fast_median, least_squares_covariance, robust_sigma
-from .contrast import chromaticity, frame_gain, scene_colour
+from .background import Background
+from .contrast import chromaticity, frame_gain, hand_pixels, scene_colour
 from .opencv import cv2
 # the flags documented above, kept importable from here; defined apart so that reading a tracked
 # table does not load OpenCV
@@ -368,7 +370,7 @@ def measure_ball(grey, background, threshold_grey, centre_guess, radius_ref_px=N
     height, width = grey.shape
     diff = grey - background
     foreground = (np.abs(diff) > threshold_grey).astype(np.uint8)
-    count, labels, stats, centroids = cv2.connectedComponentsWithStats(foreground, connectivity=8)
+    count, labels, stats, centroids = _connected_components(foreground)
     if count < 2:
         return None
     areas = stats[1:, cv2.CC_STAT_AREA]
@@ -385,7 +387,7 @@ def measure_ball(grey, background, threshold_grey, centre_guess, radius_ref_px=N
         distance = np.hypot(centroids[candidates, 0] - gx, centroids[candidates, 1] - gy)
         label = int(candidates[np.argmin(distance)])
 
-    x0, y0, w, h = stats[label, :4]
+    x0, y0, w, h = stats[label, :4].tolist()
     touches = (x0 == 0, y0 == 0, x0 + w == width, y0 + h == height)
     at_image_edge = any(t and e for t, e in zip(touches, image_edges))
     truncated = any(t and not e for t, e in zip(touches, image_edges))
@@ -435,9 +437,10 @@ def measure_ball(grey, background, threshold_grey, centre_guess, radius_ref_px=N
     core_values = grey[core.astype(bool)] if core.any() else grey[filled.astype(bool)]
     ball_grey = float(fast_median(core_values))
     denominator = ball_grey - background
-    sign = 1.0 if ball_grey >= float(background[filled.astype(bool)].mean()) else -1.0
     small = np.abs(denominator) < threshold_grey
-    denominator[small] = sign * threshold_grey
+    if small.any():  # (most balls differ from their background everywhere)
+        sign = 1.0 if ball_grey >= float(background[filled.astype(bool)].mean()) else -1.0
+        denominator[small] = sign * threshold_grey
     coverage = diff / denominator
 
     others = foreground & (1 - blob)
@@ -514,6 +517,70 @@ def _centre_colour(frame, blob):
     return np.median(window, axis=0) if window.size else np.zeros(3)
 
 
+class SearchedFrame(NamedTuple):
+    """A frame as the whole-frame search reads it (:func:`searched_frame`): made once for all contrast channels.
+
+    Attributes
+    ----------
+    image : numpy.ndarray
+        The frame reduced ``scale`` times in each direction (pixel areas averaged), grey or BGR uint8.
+    background : Background
+        The background reduced alike.
+    scale : int
+        The reduction.
+    hand : numpy.ndarray or None
+        The image's hand pixels (:func:`dropfit.video.contrast.hand_pixels`), None without colour.
+    expected_radius_px : float or None
+        Expected radius, px.
+    """
+
+    image: np.ndarray
+    background: Background
+    scale: int
+    hand: np.ndarray | None
+    expected_radius_px: float | None
+
+    def blobs(self, contrast, gain=1.0):
+        """:func:`find_blobs` of the frame in ``contrast``, with the frame's ``gain`` against the background."""
+        scale, expected_radius_px = self.scale, self.expected_radius_px
+        signal = contrast.image(self.image, self.background.grey, scene_colour(self.background), gain, self.hand)
+        left, top, labels, stats, _ = _foreground_components(
+            (np.abs(signal) > contrast.threshold).astype(np.uint8))
+        min_area = max(2.0, math.pi * (MIN_RADIUS_PX / scale) ** 2)
+        blobs = []
+        for label in np.argsort(stats[1:, cv2.CC_STAT_AREA])[::-1][:50] + 1:
+            x0, y0, w, h, area = stats[label]
+            if area < min_area:
+                break
+            blob = np.pad((labels[y0:y0 + h, x0:x0 + w] == label).astype(np.uint8), 1)
+            inscribed = cv2.distanceTransform(blob, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+            r_in = float(inscribed.max())
+            iy, ix = np.unravel_index(int(np.argmax(inscribed)), inscribed.shape)
+            radius = r_in * scale
+            if radius < MIN_RADIUS_PX:
+                continue
+            if expected_radius_px and not 0.5 * expected_radius_px <= radius <= 1.5 * expected_radius_px + scale:
+                continue
+            lone = bool(area <= MAX_FILL_RATIO * math.pi * r_in ** 2 + 2 * math.pi * r_in)
+            blobs.append(((left + x0 + ix - 1 + 0.5) * scale - 0.5, (top + y0 + iy - 1 + 0.5) * scale - 0.5,
+                          radius, lone))
+        return blobs
+
+
+def searched_frame(frame, background, expected_radius_px=None):
+    """The frame as :func:`find_blobs` searches it: reduced 1-4 times (by the expected radius; twice without
+    one), with its hand pixels, as a :class:`SearchedFrame` to search in several contrast channels."""
+    if expected_radius_px:
+        scale = int(np.clip(expected_radius_px // 4, 1, 4))
+    else:
+        scale = 2
+    if scale > 1:
+        size = (frame.shape[1] // scale, frame.shape[0] // scale)
+        frame = cv2.resize(frame[: size[1] * scale, : size[0] * scale], size, interpolation=cv2.INTER_AREA)
+        background = background.shrunk(scale)
+    return SearchedFrame(frame, background, scale, hand_pixels(frame, scene_colour(background)), expected_radius_px)
+
+
 def find_blobs(frame, background, contrast, expected_radius_px=None, gain=1.0):
     """Round foreground blobs of a whole frame: the candidates for the ball.
 
@@ -534,38 +601,10 @@ def find_blobs(frame, background, contrast, expected_radius_px=None, gain=1.0):
     -------
     list of (float, float, float, bool)
         Per blob (the 50 largest), the centre x, y and radius of its largest inscribed circle, px
-        (approximate: searched at a reduced size), and whether it is a lone disc (no more area than
-        ``MAX_FILL_RATIO`` times the circle's plus a perimeter's worth).
+        (approximate: searched at a reduced size, :func:`searched_frame`), and whether it is a lone disc
+        (no more area than ``MAX_FILL_RATIO`` times the circle's plus a perimeter's worth).
     """
-    if expected_radius_px:
-        scale = int(np.clip(expected_radius_px // 4, 1, 4))
-    else:
-        scale = 2
-    if scale > 1:
-        size = (frame.shape[1] // scale, frame.shape[0] // scale)
-        frame = cv2.resize(frame[: size[1] * scale, : size[0] * scale], size, interpolation=cv2.INTER_AREA)
-        background = background.shrunk(scale)
-    signal = contrast.image(frame, background.grey, scene_colour(background), gain)
-    left, top, labels, stats = _foreground_components((np.abs(signal) > contrast.threshold).astype(np.uint8))
-    min_area = max(2.0, math.pi * (MIN_RADIUS_PX / scale) ** 2)
-    blobs = []
-    for label in np.argsort(stats[1:, cv2.CC_STAT_AREA])[::-1][:50] + 1:
-        x0, y0, w, h, area = stats[label]
-        if area < min_area:
-            break
-        blob = np.pad((labels[y0:y0 + h, x0:x0 + w] == label).astype(np.uint8), 1)
-        inscribed = cv2.distanceTransform(blob, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
-        r_in = float(inscribed.max())
-        iy, ix = np.unravel_index(int(np.argmax(inscribed)), inscribed.shape)
-        radius = r_in * scale
-        if radius < MIN_RADIUS_PX:
-            continue
-        if expected_radius_px and not 0.5 * expected_radius_px <= radius <= 1.5 * expected_radius_px + scale:
-            continue
-        lone = bool(area <= MAX_FILL_RATIO * math.pi * r_in ** 2 + 2 * math.pi * r_in)
-        blobs.append(((left + x0 + ix - 1 + 0.5) * scale - 0.5, (top + y0 + iy - 1 + 0.5) * scale - 0.5, radius,
-                      lone))
-    return blobs
+    return searched_frame(frame, background, expected_radius_px).blobs(contrast, gain)
 
 
 def _foreground_components(mask):
@@ -577,16 +616,36 @@ def _foreground_components(mask):
 
     Returns
     -------
-    (int, int, numpy.ndarray, numpy.ndarray)
+    (int, int, numpy.ndarray, numpy.ndarray, numpy.ndarray)
         The box's left column and top row in the mask, px, and :func:`cv2.connectedComponentsWithStats`'s
-        labels and statistics in the box (the background's row 0 of the box only).
+        labels, statistics and centroids in the box (the background's row 0 of the box only).
     """
     x, y, width, height = cv2.boundingRect(mask)
     left, top = x - x % 2, y - y % 2
     if width == 0:
-        return left, top, np.zeros((0, 0), np.int32), np.zeros((1, 5), np.int32)
-    _, labels, stats, _ = cv2.connectedComponentsWithStats(mask[top:y + height, left:x + width], connectivity=8)
-    return left, top, labels, stats
+        return left, top, np.zeros((0, 0), np.int32), np.zeros((1, 5), np.int32), np.zeros((1, 2))
+    _, labels, stats, centroids = cv2.connectedComponentsWithStats(mask[top:y + height, left:x + width],
+                                                                   connectivity=8)
+    return left, top, labels, stats, centroids
+
+
+def _connected_components(mask):
+    """:func:`cv2.connectedComponentsWithStats` of a uint8 mask (8-connected), the same numbers for the
+    components (row 0, the background's, zeros), labelled within the box of the foreground
+    (:func:`_foreground_components`): count, labels, statistics and centroids, px."""
+    left, top, box_labels, stats, centroids = _foreground_components(mask)
+    labels = np.zeros(mask.shape, np.int32)
+    labels[top:top + box_labels.shape[0], left:left + box_labels.shape[1]] = box_labels
+    stats[0] = 0
+    stats[:, cv2.CC_STAT_LEFT] += left
+    stats[:, cv2.CC_STAT_TOP] += top
+    # OpenCV divides each component's sum of coordinates by its area: the sums in the box are the centroids
+    # times the areas (exactly, once rounded: integers far below 2^52), shifted by the box's corner per pixel
+    area = stats[:, cv2.CC_STAT_AREA, None].astype(float)
+    area[0] = 1.0
+    centroids = (np.rint(centroids * area) + np.array([left, top]) * area) / area
+    centroids[0] = 0.0
+    return len(stats), labels, stats, centroids
 
 
 def frame_blobs(frame, background, contrast, expected_radius_px=None):

@@ -50,7 +50,7 @@ from .background import (BACKGROUND_SAMPLES, Background, background_without_ball
 from .contrast import (CHANNELS, CHROMA, GREY, Contrast, available_contrasts, contrast_of, frame_gain, hand_pixels,
                        scene_colour, skin_mask)
 from .decode import MIN_FRAMES, Progress, VideoFile, check_frame_count, check_video_file, frame_times, spread_indices
-from .detect import find_ball, frame_blobs, measure_ball
+from .detect import find_ball, measure_ball, searched_frame
 from .link import extrapolated, find_flight
 from .opencv import cv2
 # the flags and the centre's correlation, kept importable from here (overlay, tests)
@@ -385,9 +385,10 @@ def _run(frames, background, expected_radius_px, contrast=None, hints=None):
     return [tracker.update(frame) for frame in frames]
 
 
-def _sample_blobs(samples, background, contrast, expected_radius_px):
-    """Round blobs of each sample in ``contrast`` (:func:`dropfit.video.detect.frame_blobs`)."""
-    return [frame_blobs(sample, background, contrast, expected_radius_px) for sample in samples]
+def _sample_blobs(searched, gains, contrast):
+    """Round blobs of each sample (:func:`dropfit.video.detect.searched_frame`) in ``contrast``, with the
+    sample's gain in a colour channel (as :func:`dropfit.video.detect.frame_blobs`)."""
+    return [frame.blobs(contrast, gain if contrast.in_colour else 1.0) for frame, gain in zip(searched, gains)]
 
 
 def _fixtures(blobs):
@@ -406,9 +407,13 @@ def _fixtures(blobs):
 def _rank(samples, background, expected_radius_px):
     """The contrast channels, best first (see :func:`scene_and_contrasts`), each with its fixtures."""
     scored = {}
+    # what every channel reads of a sample, read once: its gain, and the frame reduced with its hand pixels
+    scene = scene_colour(background)
+    gains = [frame_gain(sample, scene) if scene is not None else 1.0 for sample in samples]
+    searched = [searched_frame(sample, background, expected_radius_px) for sample in samples]
     for order, name in enumerate(available_contrasts(background)):
-        contrast = contrast_of(name, samples, background)
-        blobs = _sample_blobs(samples, background, contrast, expected_radius_px)
+        contrast = contrast_of(name, samples, background, gains)
+        blobs = _sample_blobs(searched, gains, contrast)
         fixtures = _fixtures(blobs)
         blobs = [[blob for blob in found if not any(math.hypot(blob[0] - x, blob[1] - y) <= FIXTURE_TOLERANCE_PX
                                                     for x, y, _ in fixtures)] for found in blobs]
