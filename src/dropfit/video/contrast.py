@@ -37,7 +37,7 @@ import numpy as np
 
 from ..numerics import robust_sigma
 from .background import NOISE_THRESHOLD_SIGMAS, to_grey
-from .opencv import cv2
+from .opencv import connected_components, cv2
 
 GREY = "grey"
 CHROMA = "chroma"
@@ -375,7 +375,7 @@ def hand_pixels(frame, background_colour, ball_bgr=None, min_area_px=0.0):
     hand = cv2.morphologyEx(hand, cv2.MORPH_OPEN, HAND_OPENING)
     if min_area_px > 0 and hand.any():
         # the shaded side of a red or orange ball is skin-coloured too, but smaller than the ball
-        count, labels, stats, _ = cv2.connectedComponentsWithStats(hand, connectivity=8)
+        _, labels, stats = connected_components(hand)[:3]
         x0, y0, width, height, area = stats.T
         # what reaches the window's border goes on beyond it: an arm
         at_border = (x0 == 0) | (y0 == 0) | (x0 + width == hand.shape[1]) | (y0 + height == hand.shape[0])

@@ -61,7 +61,7 @@ import numpy as np
 from ..numerics import fast_median, least_squares_covariance, robust_sigma
 from .background import Background
 from .contrast import chromaticity, frame_gain, hand_pixels, scene_colour
-from .opencv import cv2
+from .opencv import connected_components, cv2, foreground_components
 # the flags documented above, kept importable from here; defined apart so that reading a tracked
 # table does not load OpenCV
 from .quality import (QUALITY_BLURRED, QUALITY_DUPLICATE, QUALITY_LOST, QUALITY_OCCLUDED, QUALITY_OK,  # noqa: F401
@@ -370,7 +370,8 @@ def measure_ball(grey, background, threshold_grey, centre_guess, radius_ref_px=N
     height, width = grey.shape
     diff = grey - background
     foreground = (np.abs(diff) > threshold_grey).astype(np.uint8)
-    count, labels, stats, centroids = _connected_components(foreground)
+    components = connected_components(foreground)
+    count, labels, stats = components[:3]
     if count < 2:
         return None
     areas = stats[1:, cv2.CC_STAT_AREA]
@@ -384,7 +385,8 @@ def measure_ball(grey, background, threshold_grey, centre_guess, radius_ref_px=N
     if inside and labels[iy, ix] in candidates:
         label = int(labels[iy, ix])
     else:
-        distance = np.hypot(centroids[candidates, 0] - gx, centroids[candidates, 1] - gy)
+        centroids = components.centroids(candidates)
+        distance = np.hypot(centroids[:, 0] - gx, centroids[:, 1] - gy)
         label = int(candidates[np.argmin(distance)])
 
     x0, y0, w, h = stats[label, :4].tolist()
@@ -544,7 +546,7 @@ class SearchedFrame(NamedTuple):
         """:func:`find_blobs` of the frame in ``contrast``, with the frame's ``gain`` against the background."""
         scale, expected_radius_px = self.scale, self.expected_radius_px
         signal = contrast.image(self.image, self.background.grey, scene_colour(self.background), gain, self.hand)
-        left, top, labels, stats, _ = _foreground_components(
+        left, top, labels, stats, _ = foreground_components(
             (np.abs(signal) > contrast.threshold).astype(np.uint8))
         min_area = max(2.0, math.pi * (MIN_RADIUS_PX / scale) ** 2)
         blobs = []
@@ -605,47 +607,6 @@ def find_blobs(frame, background, contrast, expected_radius_px=None, gain=1.0):
         (no more area than ``MAX_FILL_RATIO`` times the circle's plus a perimeter's worth).
     """
     return searched_frame(frame, background, expected_radius_px).blobs(contrast, gain)
-
-
-def _foreground_components(mask):
-    """The 8-connected components of a uint8 mask, labelled within the box of its foreground.
-
-    OpenCV's statistics visit every pixel of the image, the background's too: a whole frame's few blobs
-    cost ten times their labelling. The box starts at an even row and column, so that the labelling's
-    2 × 2 blocks, and with them the labels' order, are those of the whole mask.
-
-    Returns
-    -------
-    (int, int, numpy.ndarray, numpy.ndarray, numpy.ndarray)
-        The box's left column and top row in the mask, px, and :func:`cv2.connectedComponentsWithStats`'s
-        labels, statistics and centroids in the box (the background's row 0 of the box only).
-    """
-    x, y, width, height = cv2.boundingRect(mask)
-    left, top = x - x % 2, y - y % 2
-    if width == 0:
-        return left, top, np.zeros((0, 0), np.int32), np.zeros((1, 5), np.int32), np.zeros((1, 2))
-    _, labels, stats, centroids = cv2.connectedComponentsWithStats(mask[top:y + height, left:x + width],
-                                                                   connectivity=8)
-    return left, top, labels, stats, centroids
-
-
-def _connected_components(mask):
-    """:func:`cv2.connectedComponentsWithStats` of a uint8 mask (8-connected), the same numbers for the
-    components (row 0, the background's, zeros), labelled within the box of the foreground
-    (:func:`_foreground_components`): count, labels, statistics and centroids, px."""
-    left, top, box_labels, stats, centroids = _foreground_components(mask)
-    labels = np.zeros(mask.shape, np.int32)
-    labels[top:top + box_labels.shape[0], left:left + box_labels.shape[1]] = box_labels
-    stats[0] = 0
-    stats[:, cv2.CC_STAT_LEFT] += left
-    stats[:, cv2.CC_STAT_TOP] += top
-    # OpenCV divides each component's sum of coordinates by its area: the sums in the box are the centroids
-    # times the areas (exactly, once rounded: integers far below 2^52), shifted by the box's corner per pixel
-    area = stats[:, cv2.CC_STAT_AREA, None].astype(float)
-    area[0] = 1.0
-    centroids = (np.rint(centroids * area) + np.array([left, top]) * area) / area
-    centroids[0] = 0.0
-    return len(stats), labels, stats, centroids
 
 
 def frame_blobs(frame, background, contrast, expected_radius_px=None):
