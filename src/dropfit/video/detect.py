@@ -554,7 +554,8 @@ class SearchedFrame(NamedTuple):
             x0, y0, w, h, area = stats[label]
             if area < min_area:
                 break
-            blob = np.pad((labels[y0:y0 + h, x0:x0 + w] == label).astype(np.uint8), 1)
+            blob = cv2.copyMakeBorder((labels[y0:y0 + h, x0:x0 + w] == label).astype(np.uint8), 1, 1, 1, 1,
+                                      cv2.BORDER_CONSTANT, value=0)  # (np.pad costs 20 times more)
             inscribed = cv2.distanceTransform(blob, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
             r_in = float(inscribed.max())
             iy, ix = np.unravel_index(int(np.argmax(inscribed)), inscribed.shape)
