@@ -15,6 +15,38 @@ from scipy.special import chdtrc, ndtri, stdtrit
 MAD_SCALE = 1.4826
 
 
+#: Up to this many values, :func:`fast_median` sorts them instead of calling :func:`numpy.median` (a sort
+#: of 1 000 float32 takes 8 µs, NumPy's median 23 µs).
+FEW_VALUES = 1000
+
+
+def fast_median(values):
+    """``numpy.median(values, axis=0)``, the same numbers; up to ``FEW_VALUES`` values by one sort: NumPy's
+    median has 20 µs of overhead a call, most of its cost on the few hundred values a tracker takes the
+    median of in every frame.
+
+    Parameters
+    ----------
+    values : numpy.ndarray
+        Integers or floats (float32 stays float32, as in NumPy's median), shape (n, ...).
+
+    Returns
+    -------
+    numpy.ndarray or numpy.floating
+        The median along the first axis (of integers, float64), in ``values``' unit.
+    """
+    if not 0 < len(values) <= FEW_VALUES or values.dtype == np.float16:
+        return np.median(values, axis=0)
+    ordered = np.sort(values, axis=0)
+    if not np.issubdtype(ordered.dtype, np.inexact):
+        ordered = ordered.astype(float)
+    elif np.isnan(ordered[-1]).any():
+        return np.median(values, axis=0)  # NaN (sorted last): NumPy's own answer
+    middle = ordered.shape[0] // 2
+    # + 0.0: NumPy's mean of the middle values starts its sum at 0, so a median of -0.0 is 0.0
+    return (ordered[middle] if ordered.shape[0] % 2 else (ordered[middle - 1] + ordered[middle]) / 2) + 0.0
+
+
 def robust_sigma(values, centre=None):
     """Standard deviation estimated from the median absolute deviation, immune to a few outliers.
 
@@ -34,8 +66,8 @@ def robust_sigma(values, centre=None):
     values = values[np.isfinite(values)]
     if values.size == 0:
         return 0.0
-    centre = float(np.median(values)) if centre is None else float(centre)
-    return MAD_SCALE * float(np.median(np.abs(values - centre)))
+    centre = float(fast_median(values)) if centre is None else float(centre)
+    return MAD_SCALE * float(fast_median(np.abs(values - centre)))
 
 
 def least_squares_covariance(jacobian, residuals, n_parameters=None, sigma_floor=0.0):

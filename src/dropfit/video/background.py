@@ -9,6 +9,8 @@ cuts it out of the samples where it was tracked.
 
 from __future__ import annotations
 
+import functools
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -37,6 +39,10 @@ BACKGROUND_SAMPLES = 11
 BALL_MASK_RADII = 1.2
 
 BALL_MASK_MARGIN_PX = 3.0
+
+#: Whole-frame work over all the samples goes in strips of rows of about this many bytes of samples, so
+#: that what is derived from them stays in the processor's cache (:func:`_strip_rows`).
+STRIP_BYTES = 4 * 2**20
 
 
 
@@ -119,14 +125,58 @@ def to_grey(image):
     raise ValueError(f"expected a grey or BGR image, got shape {image.shape}")
 
 
+@functools.lru_cache
+def _median_network(count):
+    """The compare-exchanges of a sorting network of ``count`` values (Batcher's merge exchange, Knuth's
+    algorithm 5.2.2M) that the middle value depends on: (i, j, whether the minimum goes on to i, whether
+    the maximum goes on to j), in order.
+
+    Only the middle one of the sorted values is wanted, so exchanges it does not depend on are left out,
+    and so is the half of an exchange whose output is not used again: 52 of the 110 minima and maxima of
+    an odd-even transposition sort of 11 images.
+    """
+    pairs = []
+    t = max(math.ceil(math.log2(count)), 1)
+    p = 2 ** (t - 1)
+    while p > 0:
+        q, r, d = 2 ** (t - 1), 0, p
+        while True:
+            pairs += [(i, i + d) for i in range(count - d) if i & p == r]
+            if q == p:
+                break
+            d, q, r = q - p, q // 2, p
+        p //= 2
+    needed, network = {count // 2}, []
+    for i, j in reversed(pairs):
+        if i in needed or j in needed:
+            network.append((i, j, i in needed, j in needed))
+            needed |= {i, j}
+    return tuple(reversed(network))
+
+
+def _strip_rows(images):
+    """Rows of a strip of ``images`` (arrays of one shape) that hold about ``STRIP_BYTES`` together."""
+    return max(STRIP_BYTES // max(images[0][:1].nbytes * len(images), 1), 1)
+
+
 def median_uint8(images):
-    """Per-pixel median of an odd number of uint8 images (odd-even transposition sort)."""
-    images = list(images)
-    k = len(images)
-    for step in range(k):
-        for i in range(step % 2, k - 1, 2):
-            images[i], images[i + 1] = cv2.min(images[i], images[i + 1]), cv2.max(images[i], images[i + 1])
-    return images[k // 2]
+    """Per-pixel median of an odd number of uint8 images (a sorting network cut down to the middle value).
+
+    Taken in strips of rows (:func:`_strip_rows`), so that the network's intermediate images stay in the
+    processor's cache: whole 720p frames went to memory and back for each minimum and maximum (11 colour
+    samples: 30 -> 8 ms).
+    """
+    images = [np.asarray(image) for image in images]
+    network = _median_network(len(images))
+    median = np.empty_like(images[0])
+    step = _strip_rows(images)
+    for top in range(0, median.shape[0], step):
+        strip = [image[top:top + step] for image in images]
+        for i, j, low, high in network:
+            strip[i], strip[j] = (cv2.min(strip[i], strip[j]) if low else None,
+                                  cv2.max(strip[i], strip[j]) if high else None)
+        median[top:top + step] = strip[len(strip) // 2]
+    return median
 
 
 def grey_uint8(image):
@@ -219,10 +269,12 @@ def _set(grey, colour, where, values):
 
 def _sample_values(samples, colour, where=None):
     """The samples' colours (or grey levels without a colour background), float32, (k, ...)."""
+    # the pixels by their indices, found once: a mask is read whole for every sample (1 ms a 720p frame)
+    index = slice(None) if where is None else np.nonzero(where)
     if colour is not None:
-        stack = np.stack([np.asarray(sample) if where is None else np.asarray(sample)[where] for sample in samples])
+        stack = np.stack([np.asarray(sample)[index] for sample in samples])
     else:
-        stack = np.stack([to_grey(sample) if where is None else to_grey(sample)[where] for sample in samples])
+        stack = np.stack([to_grey(sample)[index] for sample in samples])
     return stack.astype(np.float32)
 
 
@@ -231,17 +283,21 @@ def _count_within(samples, grey, colour, threshold):
     distance (:func:`_distance`) when ``colour`` (uint8 BGR, like the samples) is given.
 
     One sample at a time in OpenCV: the stack of every sample in float (100 MB for 11 HD frames) and
-    its NumPy reductions cost a second per clip.
+    its NumPy reductions cost a second per clip. In colour, in strips of rows (:func:`_strip_rows`) whose
+    float differences stay in the processor's cache (11 720p samples: 26 -> 14 ms).
     """
     count = np.zeros(grey.shape, np.uint8)
-    for sample in samples:
-        if colour is not None:
-            difference = cv2.absdiff(sample, colour).astype(np.float32)
+    if colour is None:
+        for sample in samples:
+            count += (np.abs(to_grey(sample) - grey) <= threshold).reshape(grey.shape)
+        return count
+    step = _strip_rows(samples)
+    for top in range(0, count.shape[0], step):
+        rows = slice(top, top + step)
+        for sample in samples:
+            difference = cv2.absdiff(sample[rows], colour[rows]).astype(np.float32)
             squared = cv2.transform(cv2.multiply(difference, difference), np.ones((1, 3), np.float32))
-            within = squared <= threshold * threshold
-        else:
-            within = np.abs(to_grey(sample) - grey) <= threshold
-        count += within.reshape(grey.shape)
+            count[rows] += squared <= threshold * threshold
     return count
 
 

@@ -37,7 +37,7 @@ import numpy as np
 
 from ..numerics import robust_sigma
 from .background import NOISE_THRESHOLD_SIGMAS, to_grey
-from .opencv import cv2
+from .opencv import connected_components, cv2
 
 GREY = "grey"
 CHROMA = "chroma"
@@ -118,7 +118,7 @@ class Contrast:
         """Whether the channel needs the frame and the background in colour."""
         return self.name != GREY
 
-    def image(self, frame, background_grey, background_colour, gain=1.0):
+    def image(self, frame, background_grey, background_colour, gain=1.0, hand=None):
         """The frame's contrast to the background, float32, background at 0.
 
         Parameters
@@ -131,13 +131,15 @@ class Contrast:
             The background's BGR over the same window, uint8 (colour channels only).
         gain : float
             The frame's gain against the background (:func:`frame_gain`), dimensionless.
+        hand : numpy.ndarray, optional
+            The frame's hand pixels when known (:func:`hand_pixels` without the ball's colour), as in :meth:`images`.
 
         Returns
         -------
         numpy.ndarray
             float32, the window's shape without channels, grey levels.
         """
-        image, background = self.images(frame, background_grey, background_colour, gain)
+        image, background = self.images(frame, background_grey, background_colour, gain, hand=hand)
         return image - background
 
     def images(self, frame, background_grey, background_colour, gain=1.0, ball_bgr=None, hand=None):
@@ -289,6 +291,9 @@ def chroma_contrast(frame, background_colour, gain=1.0, ball_bgr=None):
 #: under common lighting (Chai and Ngan's rule), dark to light complexions.
 SKIN_CR = (135, 175)
 SKIN_CB = (80, 130)
+#: The skin ranges as YCrCb bounds for :func:`cv2.inRange` (any Y).
+_SKIN_LOW = np.array([0, SKIN_CR[0], SKIN_CB[0]], np.uint8)
+_SKIN_HIGH = np.array([255, SKIN_CR[1], SKIN_CB[1]], np.uint8)
 #: Least chroma contrast (grey levels) of a hand's pixel to the background.
 HAND_MIN_CHROMA = 20.0
 #: A pixel within this fraction of the ball-to-background colour distance (at least MIN_BLEND_TOLERANCE
@@ -310,9 +315,9 @@ def skin_mask(frame):
     numpy.ndarray
         bool, the frame's shape without channels.
     """
+    # one OpenCV pass over the three channels: NumPy's four comparisons of strided channels cost 2.5 times more
     ycrcb = cv2.cvtColor(np.ascontiguousarray(frame), cv2.COLOR_BGR2YCrCb)
-    cr, cb = ycrcb[..., 1], ycrcb[..., 2]
-    return (cr >= SKIN_CR[0]) & (cr <= SKIN_CR[1]) & (cb >= SKIN_CB[0]) & (cb <= SKIN_CB[1])
+    return cv2.inRange(ycrcb, _SKIN_LOW, _SKIN_HIGH).reshape(ycrcb.shape[:-1]) != 0
 
 
 def _ball_blend(frame, background_colour, ball_bgr):
@@ -370,7 +375,7 @@ def hand_pixels(frame, background_colour, ball_bgr=None, min_area_px=0.0):
     hand = cv2.morphologyEx(hand, cv2.MORPH_OPEN, HAND_OPENING)
     if min_area_px > 0 and hand.any():
         # the shaded side of a red or orange ball is skin-coloured too, but smaller than the ball
-        count, labels, stats, _ = cv2.connectedComponentsWithStats(hand, connectivity=8)
+        _, labels, stats = connected_components(hand)[:3]
         x0, y0, width, height, area = stats.T
         # what reaches the window's border goes on beyond it: an arm
         at_border = (x0 == 0) | (y0 == 0) | (x0 + width == hand.shape[1]) | (y0 + height == hand.shape[0])
@@ -422,7 +427,7 @@ def _gain_reference(background_colour):
     return lit, background[lit], power[lit]
 
 
-def contrast_of(name, samples, background):
+def contrast_of(name, samples, background, gains=None):
     """The channel ``name`` with its noise and threshold measured on the background's samples.
 
     Parameters
@@ -433,6 +438,8 @@ def contrast_of(name, samples, background):
         The frames whose median is the background (BGR uint8 for the colour channels).
     background : dropfit.video.background.Background
         The background.
+    gains : sequence of float, optional
+        The samples' gains (:func:`frame_gain`) when known.
 
     Returns
     -------
@@ -448,8 +455,10 @@ def contrast_of(name, samples, background):
     colour = background.colour[::s, ::s]
     values = []
     channel = Contrast(name, 0.0, 0.0)
-    for sample in samples:
-        image = channel.image(sample[::s, ::s], None, colour, frame_gain(sample, scene_colour(background)))
+    if gains is None:
+        gains = [frame_gain(sample, scene_colour(background)) for sample in samples]
+    for sample, gain in zip(samples, gains):
+        image = channel.image(sample[::s, ::s], None, colour, gain)
         values.append(image.ravel())
     values = np.concatenate(values)
     if name == CHROMA:

@@ -63,12 +63,14 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
-from ..numerics import least_squares_covariance, robust_sigma
-from .contrast import chromaticity, frame_gain, scene_colour
-from .opencv import cv2
+from ..numerics import fast_median, least_squares_covariance, robust_sigma
+from .background import Background
+from .contrast import chromaticity, frame_gain, hand_pixels, scene_colour
+from .opencv import connected_components, cv2, foreground_components
 # the flags documented above, kept importable from here; defined apart so that reading a tracked
 # table does not load OpenCV
 from .quality import (QUALITY_BLURRED, QUALITY_DUPLICATE, QUALITY_LOST, QUALITY_OCCLUDED, QUALITY_OK,  # noqa: F401
@@ -511,7 +513,8 @@ def measure_ball(grey, background, threshold_grey, centre_guess, radius_ref_px=N
     height, width = grey.shape
     diff = grey - background
     foreground = (np.abs(diff) > threshold_grey).astype(np.uint8)
-    count, labels, stats, centroids = cv2.connectedComponentsWithStats(foreground, connectivity=8)
+    components = connected_components(foreground)
+    count, labels, stats = components[:3]
     if count < 2:
         return None
     areas = stats[1:, cv2.CC_STAT_AREA]
@@ -525,10 +528,11 @@ def measure_ball(grey, background, threshold_grey, centre_guess, radius_ref_px=N
     if inside and labels[iy, ix] in candidates:
         label = int(labels[iy, ix])
     else:
-        distance = np.hypot(centroids[candidates, 0] - gx, centroids[candidates, 1] - gy)
+        centroids = components.centroids(candidates)
+        distance = np.hypot(centroids[:, 0] - gx, centroids[:, 1] - gy)
         label = int(candidates[np.argmin(distance)])
 
-    x0, y0, w, h = stats[label, :4]
+    x0, y0, w, h = stats[label, :4].tolist()
     touches = (x0 == 0, y0 == 0, x0 + w == width, y0 + h == height)
     at_image_edge = any(t and e for t, e in zip(touches, image_edges))
     truncated = any(t and not e for t, e in zip(touches, image_edges))
@@ -584,11 +588,12 @@ def measure_ball(grey, background, threshold_grey, centre_guess, radius_ref_px=N
         yy, xx = np.ogrid[:height, :width]
         core = core & ((xx - ix_in) ** 2 + (yy - iy_in) ** 2 <= (0.7 * r_in) ** 2).astype(np.uint8)
     core_values = grey[core.astype(bool)] if core.any() else grey[filled.astype(bool)]
-    ball_grey = float(np.median(core_values))
+    ball_grey = float(fast_median(core_values))
     denominator = ball_grey - background
-    sign = 1.0 if ball_grey >= float(background[filled.astype(bool)].mean()) else -1.0
     small = np.abs(denominator) < threshold_grey
-    denominator[small] = sign * threshold_grey
+    if small.any():  # (most balls differ from their background everywhere)
+        sign = 1.0 if ball_grey >= float(background[filled.astype(bool)].mean()) else -1.0
+        denominator[small] = sign * threshold_grey
     coverage = diff / denominator
 
     others = foreground & (1 - blob)
@@ -665,6 +670,82 @@ def _centre_colour(frame, blob):
     return np.median(window, axis=0) if window.size else np.zeros(3)
 
 
+class SearchedFrame(NamedTuple):
+    """A frame as the whole-frame search reads it (:func:`searched_frame`): made once for all contrast channels.
+
+    Attributes
+    ----------
+    image : numpy.ndarray
+        The frame reduced ``scale`` times in each direction (pixel areas averaged), grey or BGR uint8.
+    background : Background
+        The background reduced alike.
+    scale : int
+        The reduction.
+    hand : numpy.ndarray or None
+        The image's hand pixels (:func:`dropfit.video.contrast.hand_pixels`), None without colour.
+    expected_radius_px : float or None
+        Expected radius, px.
+    """
+
+    image: np.ndarray
+    background: Background
+    scale: int
+    hand: np.ndarray | None
+    expected_radius_px: float | None
+
+    def blobs(self, contrast, gain=1.0):
+        """:func:`find_blobs` of the frame in ``contrast``, with the frame's ``gain`` against the background."""
+        scale, expected_radius_px = self.scale, self.expected_radius_px
+        signal = contrast.image(self.image, self.background.grey, scene_colour(self.background), gain, self.hand)
+        left, top, labels, stats, _ = foreground_components(
+            (np.abs(signal) > contrast.threshold).astype(np.uint8))
+        min_area = max(2.0, math.pi * (MIN_RADIUS_PX / scale) ** 2)
+        blobs = []
+        for label in np.argsort(stats[1:, cv2.CC_STAT_AREA])[::-1][:50] + 1:
+            x0, y0, w, h, area = stats[label]
+            if area < min_area:
+                break
+            in_box = labels[y0:y0 + h, x0:x0 + w] == label
+            lit = _lit_part(signal[top + y0:top + y0 + h, left + x0:left + x0 + w], in_box, contrast.threshold)
+            if lit is not None:
+                # a light ball merged with its shadow, where its lit part is: not a lone disc (a channel that
+                # leaves the shadow out sees one), but what measure_ball measures on its lit side
+                ys, xs = np.nonzero(lit)
+                radius = math.sqrt(np.count_nonzero(lit) / math.pi) * scale
+                if radius >= MIN_RADIUS_PX:
+                    blobs.append(((left + x0 + xs.mean() + 0.5) * scale - 0.5,
+                                  (top + y0 + ys.mean() + 0.5) * scale - 0.5, expected_radius_px or radius, False))
+                continue
+            blob = cv2.copyMakeBorder(in_box.astype(np.uint8), 1, 1, 1, 1,
+                                      cv2.BORDER_CONSTANT, value=0)  # (np.pad costs 20 times more)
+            inscribed = cv2.distanceTransform(blob, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
+            r_in = float(inscribed.max())
+            iy, ix = np.unravel_index(int(np.argmax(inscribed)), inscribed.shape)
+            radius = r_in * scale
+            if radius < MIN_RADIUS_PX:
+                continue
+            if expected_radius_px and not 0.5 * expected_radius_px <= radius <= 1.5 * expected_radius_px + scale:
+                continue
+            lone = bool(area <= MAX_FILL_RATIO * math.pi * r_in ** 2 + 2 * math.pi * r_in)
+            blobs.append(((left + x0 + ix - 1 + 0.5) * scale - 0.5, (top + y0 + iy - 1 + 0.5) * scale - 0.5,
+                          radius, lone))
+        return blobs
+
+
+def searched_frame(frame, background, expected_radius_px=None):
+    """The frame as :func:`find_blobs` searches it: reduced 1-4 times (by the expected radius; twice without
+    one), with its hand pixels, as a :class:`SearchedFrame` to search in several contrast channels."""
+    if expected_radius_px:
+        scale = int(np.clip(expected_radius_px // 4, 1, 4))
+    else:
+        scale = 2
+    if scale > 1:
+        size = (frame.shape[1] // scale, frame.shape[0] // scale)
+        frame = cv2.resize(frame[: size[1] * scale, : size[0] * scale], size, interpolation=cv2.INTER_AREA)
+        background = background.shrunk(scale)
+    return SearchedFrame(frame, background, scale, hand_pixels(frame, scene_colour(background)), expected_radius_px)
+
+
 def find_blobs(frame, background, contrast, expected_radius_px=None, gain=1.0):
     """Round foreground blobs of a whole frame: the candidates for the ball.
 
@@ -685,49 +766,10 @@ def find_blobs(frame, background, contrast, expected_radius_px=None, gain=1.0):
     -------
     list of (float, float, float, bool)
         Per blob (the 50 largest), the centre x, y and radius of its largest inscribed circle, px
-        (approximate: searched at a reduced size), and whether it is a lone disc (no more area than
-        ``MAX_FILL_RATIO`` times the circle's plus a perimeter's worth).
+        (approximate: searched at a reduced size, :func:`searched_frame`), and whether it is a lone disc
+        (no more area than ``MAX_FILL_RATIO`` times the circle's plus a perimeter's worth).
     """
-    if expected_radius_px:
-        scale = int(np.clip(expected_radius_px // 4, 1, 4))
-    else:
-        scale = 2
-    if scale > 1:
-        size = (frame.shape[1] // scale, frame.shape[0] // scale)
-        frame = cv2.resize(frame[: size[1] * scale, : size[0] * scale], size, interpolation=cv2.INTER_AREA)
-        background = background.shrunk(scale)
-    signal = contrast.image(frame, background.grey, scene_colour(background), gain)
-    mask = (np.abs(signal) > contrast.threshold).astype(np.uint8)
-    count, labels, stats, _ = cv2.connectedComponentsWithStats(mask, connectivity=8)
-    min_area = max(2.0, math.pi * (MIN_RADIUS_PX / scale) ** 2)
-    blobs = []
-    for label in np.argsort(stats[1:, cv2.CC_STAT_AREA])[::-1][:50] + 1:
-        x0, y0, w, h, area = stats[label]
-        if area < min_area:
-            break
-        in_box = labels[y0:y0 + h, x0:x0 + w] == label
-        lit = _lit_part(signal[y0:y0 + h, x0:x0 + w], in_box, contrast.threshold)
-        if lit is not None:
-            # a light ball merged with its shadow, where its lit part is: not a lone disc (a channel that
-            # leaves the shadow out sees one), but what measure_ball measures on its lit side
-            ys, xs = np.nonzero(lit)
-            radius = math.sqrt(np.count_nonzero(lit) / math.pi) * scale
-            if radius >= MIN_RADIUS_PX:
-                blobs.append(((x0 + xs.mean() + 0.5) * scale - 0.5, (y0 + ys.mean() + 0.5) * scale - 0.5,
-                              expected_radius_px or radius, False))
-            continue
-        blob = np.pad(in_box.astype(np.uint8), 1)
-        inscribed = cv2.distanceTransform(blob, cv2.DIST_L2, cv2.DIST_MASK_PRECISE)
-        r_in = float(inscribed.max())
-        iy, ix = np.unravel_index(int(np.argmax(inscribed)), inscribed.shape)
-        radius = r_in * scale
-        if radius < MIN_RADIUS_PX:
-            continue
-        if expected_radius_px and not 0.5 * expected_radius_px <= radius <= 1.5 * expected_radius_px + scale:
-            continue
-        lone = bool(area <= MAX_FILL_RATIO * math.pi * r_in ** 2 + 2 * math.pi * r_in)
-        blobs.append(((x0 + ix - 1 + 0.5) * scale - 0.5, (y0 + iy - 1 + 0.5) * scale - 0.5, radius, lone))
-    return blobs
+    return searched_frame(frame, background, expected_radius_px).blobs(contrast, gain)
 
 
 def frame_blobs(frame, background, contrast, expected_radius_px=None):

@@ -44,13 +44,13 @@ import pandas as pd
 
 from ..errors import InputError, shown_path
 from ..files import check_input_file
-from ..numerics import robust_sigma
+from ..numerics import fast_median, robust_sigma
 from .background import (BACKGROUND_SAMPLES, Background, background_without_ball, estimate_background, grey_uint8,
                          to_grey)
 from .contrast import (CHANNELS, CHROMA, GREY, Contrast, available_contrasts, contrast_of, frame_gain, hand_pixels,
                        scene_colour, skin_mask)
 from .decode import MIN_FRAMES, Progress, VideoFile, check_frame_count, check_video_file, frame_times, spread_indices
-from .detect import find_ball, frame_blobs, measure_ball
+from .detect import find_ball, measure_ball, searched_frame
 from .link import extrapolated, find_flight
 from .opencv import cv2
 # the flags and the centre's correlation, kept importable from here (overlay, tests)
@@ -240,14 +240,7 @@ class BallTracker:
         if result is None:
             return None
         if window.ndim == 3:
-            rows, columns = np.ogrid[:window.shape[0], :window.shape[1]]
-            core = (columns - result.x_px) ** 2 + (rows - result.y_px) ** 2 <= (0.5 * result.radius_px) ** 2
-            if core.any():
-                centre = np.median(window[core], axis=0)
-                # a ball's centre, not a hand's: held or blurred balls teach the colour too
-                if not skin_mask(np.clip(np.rint(centre), 0, 255).astype(np.uint8).reshape(1, 1, 3))[0, 0]:
-                    self._ball_colours = (self._ball_colours + [centre / self._gain])[-15:]
-                    self._ball_bgr = tuple(np.median(self._ball_colours, axis=0))
+            self._learn_colour(window, result)
         if result.quality != QUALITY_OCCLUDED and hand is not None and hand.any():
             # a hand touching the ball hides part of it, whether or not it shows in this channel
             rows, columns = np.nonzero(hand)
@@ -255,6 +248,27 @@ class BallTracker:
             if np.any((columns - result.x_px) ** 2 + (rows - result.y_px) ** 2 <= reach * reach):
                 result = replace(result, quality=QUALITY_OCCLUDED)
         return replace(result, x_px=result.x_px + x0, y_px=result.y_px + y0)
+
+    def _learn_colour(self, window, result):
+        """Take the ball's colour from a BGR window where it was measured (``result``, window px): the median
+        of the pixels within half a radius of its centre, the frame's gain divided out, unless skin-coloured."""
+        reach = abs(0.5 * result.radius_px)
+        height, width = window.shape[:2]
+        left, top, right, bottom = 0, 0, width, height
+        if math.isfinite(result.x_px) and math.isfinite(result.y_px) and math.isfinite(reach):
+            # the pixels are looked for in the box about the disc, not in the whole window
+            left, top = max(math.floor(result.x_px - reach), 0), max(math.floor(result.y_px - reach), 0)
+            right = max(min(math.ceil(result.x_px + reach) + 1, width), left)
+            bottom = max(min(math.ceil(result.y_px + reach) + 1, height), top)
+        rows, columns = np.arange(top, bottom)[:, None], np.arange(left, right)
+        core = (columns - result.x_px) ** 2 + (rows - result.y_px) ** 2 <= reach ** 2
+        if not core.any():
+            return
+        centre = fast_median(window[top:bottom, left:right][core])
+        # a ball's centre, not a hand's: held or blurred balls teach the colour too
+        if not skin_mask(np.clip(np.rint(centre), 0, 255).astype(np.uint8).reshape(1, 1, 3))[0, 0]:
+            self._ball_colours = (self._ball_colours + [centre / self._gain])[-15:]
+            self._ball_bgr = tuple(fast_median(np.array(self._ball_colours)))
 
     def _search(self, frame, near=None):
         """The ball measured where a search of the whole frame (or, ``near`` = (x, y, reach) px, of the
@@ -377,7 +391,7 @@ class BallTracker:
         self._history = (self._history + [(self._index, result.x_px, result.y_px)])[-3:]
         if result.quality == QUALITY_OK:
             self._radii = (self._radii + [result.radius_px])[-15:]
-            self._radius_ref = float(np.median(self._radii))
+            self._radius_ref = float(fast_median(np.array(self._radii)))
             enough = len(self._radii) >= MIN_RADII_FOR_SPREAD
             self._radius_spread = robust_sigma(self._radii, centre=self._radius_ref) if enough else 0.0
         return result.x_px, result.y_px, result.radius_px, result.quality, result.centre_se_px, result.fit_rms_px
@@ -397,9 +411,10 @@ def _run(frames, background, expected_radius_px, contrast=None, hints=None):
     return [tracker.update(frame) for frame in frames]
 
 
-def _sample_blobs(samples, background, contrast, expected_radius_px):
-    """Round blobs of each sample in ``contrast`` (:func:`dropfit.video.detect.frame_blobs`)."""
-    return [frame_blobs(sample, background, contrast, expected_radius_px) for sample in samples]
+def _sample_blobs(searched, gains, contrast):
+    """Round blobs of each sample (:func:`dropfit.video.detect.searched_frame`) in ``contrast``, with the
+    sample's gain in a colour channel (as :func:`dropfit.video.detect.frame_blobs`)."""
+    return [frame.blobs(contrast, gain if contrast.in_colour else 1.0) for frame, gain in zip(searched, gains)]
 
 
 def _fixtures(blobs):
@@ -418,9 +433,13 @@ def _fixtures(blobs):
 def _rank(samples, background, expected_radius_px):
     """The contrast channels, best first (see :func:`scene_and_contrasts`), each with its fixtures."""
     scored = {}
+    # what every channel reads of a sample, read once: its gain, and the frame reduced with its hand pixels
+    scene = scene_colour(background)
+    gains = [frame_gain(sample, scene) if scene is not None else 1.0 for sample in samples]
+    searched = [searched_frame(sample, background, expected_radius_px) for sample in samples]
     for order, name in enumerate(available_contrasts(background)):
-        contrast = contrast_of(name, samples, background)
-        blobs = _sample_blobs(samples, background, contrast, expected_radius_px)
+        contrast = contrast_of(name, samples, background, gains)
+        blobs = _sample_blobs(searched, gains, contrast)
         fixtures = _fixtures(blobs)
         blobs = [[blob for blob in found if not any(math.hypot(blob[0] - x, blob[1] - y) <= FIXTURE_TOLERANCE_PX
                                                     for x, y, _ in fixtures)] for found in blobs]
