@@ -318,14 +318,19 @@ def _fit_outline(coverage, points, centre, radius, radius_ref_px):
     if len(edge) < 8:
         return None
     fixed = radius_ref_px is not None
-    start_r = radius_ref_px if fixed else radius
-    fit = fit_circle_geometric(edge[:, 0], edge[:, 1], centre, start_r, fixed)
-    residual = np.hypot(edge[:, 0] - fit[0], edge[:, 1] - fit[1]) - fit[2]
-    spread = robust_sigma(residual)
-    inlier = np.abs(residual) <= max(EDGE_OUTLIER_SIGMAS * spread, EDGE_OUTLIER_MIN_PX)
+    return _trimmed_circle(edge, centre, radius_ref_px if fixed else radius, fixed)
+
+
+def _trimmed_circle(points, centre, radius, fixed_radius):
+    """:func:`fit_circle_geometric` to ``points`` (n, 2; px) from ``centre`` and ``radius``, fitted again
+    without the points farther from the first circle than ``EDGE_OUTLIER_SIGMAS`` robust standard
+    deviations of the residuals (and than ``EDGE_OUTLIER_MIN_PX``); None when fewer than 8 remain."""
+    fit = fit_circle_geometric(points[:, 0], points[:, 1], centre, radius, fixed_radius)
+    residual = np.hypot(points[:, 0] - fit[0], points[:, 1] - fit[1]) - fit[2]
+    inlier = np.abs(residual) <= max(EDGE_OUTLIER_SIGMAS * robust_sigma(residual), EDGE_OUTLIER_MIN_PX)
     if inlier.sum() < 8:
         return None
-    return fit_circle_geometric(edge[inlier, 0], edge[inlier, 1], fit[:2], fit[2], fixed)
+    return fit_circle_geometric(points[inlier, 0], points[inlier, 1], fit[:2], fit[2], fixed_radius)
 
 
 def _steepest_outline(contrast, centre, radius):
@@ -364,7 +369,7 @@ def _fit_lit_side(contrast, start, radius_px, fixed_radius):
     from one side before a light wall is lighter than the wall on its lit side only; its shaded side is
     as dark as the wall and fades into its shadow. The lit side's outline is where the contrast falls
     fastest along rays (:func:`_steepest_outline`), on the rays whose fall is at least
-    ``LIT_EDGE_FRACTION`` of the steepest; points off the circle are trimmed as in :func:`_fit_outline`.
+    ``LIT_EDGE_FRACTION`` of the steepest; points off the circle are trimmed (:func:`_trimmed_circle`).
     Starts at ``start`` (x, y, px), refits ``LIT_FIT_PASSES`` times about the last centre.
     """
     centre, radius, fit = start, radius_px, None
@@ -375,13 +380,8 @@ def _fit_lit_side(contrast, start, radius_px, fixed_radius):
         lit = points[fall >= LIT_EDGE_FRACTION * fall.max()]
         if len(lit) < 8:
             return None
-        fit = fit_circle_geometric(lit[:, 0], lit[:, 1], centre, radius, fixed_radius)
-        residual = np.hypot(lit[:, 0] - fit[0], lit[:, 1] - fit[1]) - fit[2]
-        inlier = np.abs(residual) <= max(EDGE_OUTLIER_SIGMAS * robust_sigma(residual), EDGE_OUTLIER_MIN_PX)
-        if inlier.sum() < 8:
-            return None
-        fit = fit_circle_geometric(lit[inlier, 0], lit[inlier, 1], fit[:2], fit[2], fixed_radius)
-        if not MIN_RADIUS_PX <= fit[2] <= 2.0 * radius:
+        fit = _trimmed_circle(lit, centre, radius, fixed_radius)
+        if fit is None or not MIN_RADIUS_PX <= fit[2] <= 2.0 * radius:
             return None
         centre, radius = fit[:2], fit[2]
     return fit
@@ -403,7 +403,7 @@ def _shaded_ball(diff, blob, threshold_grey, radius_px=None):
     diff : numpy.ndarray
         The frame less the background, grey levels.
     blob : numpy.ndarray
-        bool, the merged blob (``|diff|`` above the threshold).
+        The merged blob (``|diff|`` above the threshold), bool or 0/1.
     threshold_grey : float
         Foreground threshold, grey levels.
     radius_px : float, optional
@@ -429,7 +429,7 @@ def _lit_part(diff, blob, threshold, shadow_needed=True):
     diff : numpy.ndarray
         The contrast to the scene, signed.
     blob : numpy.ndarray
-        bool, the blob (``|diff|`` above ``threshold``).
+        The blob (``|diff|`` above ``threshold``), bool or 0/1.
     threshold : float
         The foreground threshold, in ``diff``'s units.
     """
@@ -549,15 +549,15 @@ def measure_ball(grey, background, threshold_grey, centre_guess, radius_ref_px=N
                                 image_edges[2] and right_px == window_width,
                                 image_edges[3] and bottom_px == window_height)
 
+    blob = (labels == label).astype(np.uint8)
     if not at_image_edge:
         # a ball lighter than the scene merged with its darker shadow can be round in |contrast| with the
         # shadow's halo about it: measured on its lit side alone
-        shaded = _shaded_ball(diff, labels == label, threshold_grey, shaded_radius_px)
+        shaded = _shaded_ball(diff, blob, threshold_grey, shaded_radius_px)
         if shaded is not None:
             cx, cy, r, centre_se, fit_rms = shaded
             return BallMeasurement(float(cx + left_px), float(cy + top_px), float(r), QUALITY_SHADED, truncated,
                                    centre_se, fit_rms)
-    blob = (labels == label).astype(np.uint8)
     filled, _ = _fill_largest(blob)
 
     # A lone disc (even motion-blurred) is round and fills the ellipse of its second moments; a
