@@ -57,7 +57,10 @@ class ClipWriter:
         self.stream.codec_context.time_base = time_base
         self.time_base = time_base
         if codec == "libx264":
-            self.stream.options = {"crf": str(crf), "preset": encoder_preset}
+            # x264's macroblock-tree rate control reads uninitialised memory on these scenes (the same
+            # frames encoded to files that differed with MALLOC_PERTURB_); without it every encode of a
+            # seed gives the same file.  Phone hardware encoders have no macroblock tree either.
+            self.stream.options = {"crf": str(crf), "preset": encoder_preset, "x264-params": "mbtree=0"}
         else:
             # about 0.3 bit per pixel: visually clean, like a camera's AVI
             self.stream.codec_context.bit_rate = int(0.3 * stored_w * stored_h * float(container_fps))

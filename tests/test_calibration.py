@@ -208,6 +208,17 @@ def test_infer_capture_rate_keeps_a_matching_file_rate_and_an_uncommon_estimate(
     assert rate["capture_fps"] == pytest.approx(uncommon, rel=1e-9)
 
 
+def test_infer_capture_rate_blames_the_scale_for_an_estimate_near_the_files_rate():
+    """A ball measured 15 % too large (its shadow merged): at the file's 30 fps gravity then says 34.5 fps,
+    no common rate and no slow motion; the file's rate is kept and the scale is named as off."""
+    scale = 0.0018  # m/px
+    real_time = STANDARD_GRAVITY_M_S2 / scale  # px/s² at the true scale
+    rate = infer_capture_rate(real_time, scale / 1.15, 30.0, STANDARD_GRAVITY_M_S2)
+    assert rate["estimate_fps"] == pytest.approx(30.0 * np.sqrt(1.15), rel=1e-9)
+    assert rate["capture_fps"] == 30.0 and not rate["snapped"]
+    assert "+15 % off" in rate["why"]
+
+
 def test_slow_motion_file_gets_its_capture_rate_from_gravity(slow_motion_clip):
     """240 fps stored at 30 fps: the diameter scale and the flights' acceleration say 240 fps."""
     attrs = trajectory_from_video(slow_motion_clip, ball_radius_m=BALL["radius_m"]).attrs

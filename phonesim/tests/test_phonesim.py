@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 import json
+import os
+import subprocess
+import sys
 from dataclasses import replace
 from fractions import Fraction
 
@@ -188,3 +191,24 @@ def test_every_preset_renders(name):
     config = replace(phonesim.PRESETS[name].scaled(0.1), duration_s=0.3)
     rows = [row for row, _ in iter_frames(config, seed=0)]
     assert rows and all(np.isfinite(row["x_px"]) for row in rows)
+
+
+_ENCODE_SCRIPT = """
+import sys
+from dataclasses import replace
+import phonesim
+config = replace(phonesim.PRESETS["red_blur_portrait"].scaled(0.25), duration_s=1.5)
+phonesim.render_clip(config, sys.argv[1], seed=0)
+"""
+
+
+def test_an_h264_encode_does_not_depend_on_leftover_memory(tmp_path):
+    # glibc fills fresh allocations with MALLOC_PERTURB_'s byte: an encoder that reads memory it never
+    # wrote writes different files in the two runs (x264's macroblock tree did, 1 CI run in ~5)
+    written = []
+    for fill in ("85", "170"):
+        path = tmp_path / f"clip_{fill}.mp4"
+        env = dict(os.environ, MALLOC_PERTURB_=fill)
+        subprocess.run([sys.executable, "-c", _ENCODE_SCRIPT, str(path)], env=env, check=True)
+        written.append(path.read_bytes())
+    assert written[0] == written[1]

@@ -108,6 +108,10 @@ CAPTURE_RATE_SNAP_TOLERANCE = 0.02
 #: A container rate within this relative distance of the inferred capture rate is the capture rate:
 #: the independent scale's error (about 1 %) moves the inferred rate by half as much.
 CAPTURE_RATE_MATCH_TOLERANCE = 0.05
+#: Slow motion plays a capture back at least this many times slower than it was filmed (60 fps stored as
+#: 30): an estimate nearer the file's rate, at no common rate, says that the length scale is off (a ball
+#: measured with its shadow or its blur), not the rate.
+MIN_SLOW_MOTION_FACTOR = 1.5
 
 
 @dataclass(frozen=True)
@@ -554,7 +558,9 @@ def infer_capture_rate(acceleration_px_s2, scale_m_per_px, file_fps, gravity_m_s
     -------
     dict
         ``estimate_fps`` (√(g / (s·A)) × file rate), ``capture_fps`` (the rate to use: the file's
-        own if it matches, else the snapped or the raw estimate), ``snapped`` (bool) and ``why``.
+        own if it matches, else the snapped estimate; off every common rate, the raw estimate for slow
+        motion, ``MIN_SLOW_MOTION_FACTOR`` times the file's rate or more, else the file's own),
+        ``snapped`` (bool) and ``why``.
     """
     estimate = file_fps * float(np.sqrt(gravity_m_s2 / (scale_m_per_px * acceleration_px_s2)))
     if abs(estimate / file_fps - 1.0) <= CAPTURE_RATE_MATCH_TOLERANCE:
@@ -566,6 +572,11 @@ def infer_capture_rate(acceleration_px_s2, scale_m_per_px, file_fps, gravity_m_s
         return {"estimate_fps": estimate, "capture_fps": nearest, "snapped": True,
                 "why": f"gravity gives {estimate:.4g} fps against the file's {file_fps:g} fps: "
                        f"slow motion captured at {nearest:g} fps (within {100 * CAPTURE_RATE_SNAP_TOLERANCE:g} %)"}
+    if estimate < MIN_SLOW_MOTION_FACTOR * file_fps:
+        return {"estimate_fps": estimate, "capture_fps": file_fps, "snapped": False,
+                "why": f"the file's rate {file_fps:g} fps is kept: gravity gives {estimate:.4g} fps, neither a "
+                       f"common rate nor slow motion, so the length scale it was measured with is "
+                       f"{100 * ((estimate / file_fps) ** 2 - 1):+.0f} % off"}
     return {"estimate_fps": estimate, "capture_fps": estimate, "snapped": False,
             "why": f"gravity gives {estimate:.4g} fps against the file's {file_fps:g} fps, not within "
                    f"{100 * CAPTURE_RATE_SNAP_TOLERANCE:g} % of a common rate: the estimate is used"}

@@ -76,13 +76,17 @@ HISTORY_FRAMES = 6
 #: this many of its recent ``ok`` radii or more.
 MIN_RADII_FOR_SPREAD = 4
 #: A ball merged with its shadow (``shaded``) has its radius fitted to its lit side in its first frames
-#: with a good fit (RMS residual at most MAX_PARTIAL_FIT_RMS_PX); from this many on, their median is held
-#: (a held radius fixes the centre of a half-circle far better). Held apart from the ``ok`` balls' radius:
-#: the lit side's edge is not where the coverage of a whole ball crosses one half.
-SHADED_RADII = 5
-#: ... fitted while the ball moves less than this many radii a frame: a blurred ball's lit side is not a
-#: circle's, and fits a radius several per cent short (a 15 px ball streaked over half its radius: 14.0 px).
-SHADED_STILL_RADII = 0.5
+#: with a good fit (RMS residual at most MAX_PARTIAL_FIT_RMS_PX); from this many barely moving ones on, their
+#: median is held (a held radius fixes the centre of a half-circle far better; a 30 Hz clip has about three
+#: such frames at an apex). Held apart from the ``ok`` balls' radius: the lit side's edge is not where the
+#: coverage of a whole ball crosses one half.
+SHADED_RADII = 3
+#: A ball that moved less than this many of its radii since the last frame is barely blurred; its size is
+#: learnt from such frames. A blurred ball's lit side is not a circle's and fits a radius several per cent
+#: short (a 15 px ball streaked over half its radius: 14.0 px); its coverage in a colour channel at half
+#: resolution reads larger (phonesim's red ball: 12.3 px at its apex, 14-14.6 px falling at 30 frames/s),
+#: and a reference learnt from those flags the ball at its apex occluded.
+STILL_RADII = 0.5
 #: An ``ok`` ball smaller than this fraction of the radius fitted to shaded balls' lit sides is a part of the
 #: ball: flagged ``occluded``.
 SHADED_SIZE_FRACTION = 0.75
@@ -176,7 +180,8 @@ class BallTracker:
             self.right, self.bottom = max(min(x1, width), self.left + 1), max(min(y1, height), self.top + 1)
         self._search_background = background.cropped(self.left, self.top, self.right, self.bottom)
         self.expected_radius_px = expected_radius_px
-        self._radii = []
+        self._radii = []  # radii of the last ``ok`` balls, px
+        self._still_radii = []  # ... of those that moved less than STILL_RADII radii a frame, px
         self._radius_ref = None
         self._radius_spread = 0.0
         self._shaded_fits = []  # radii fitted to the lit sides of the last shaded balls, px
@@ -194,7 +199,8 @@ class BallTracker:
 
     @property
     def radius_ref_px(self):
-        """The expected radius, px: the median of recent ``ok`` radii, else the given one."""
+        """The expected radius, px: the median of recent ``ok`` radii of barely blurred balls (before there is
+        one, the smallest recent ``ok`` radius), else the given one."""
         return self._radius_ref if self._radii else self.expected_radius_px
 
     @property
@@ -299,6 +305,15 @@ class BallTracker:
         (t0, x0, y0), (t1, x1, y1) = history[-2:]
         return math.hypot(x1 - x0, y1 - y0) / (t1 - t0)
 
+    def _barely_moving(self, radius_px):
+        """Whether the ball moved less than ``STILL_RADII`` radii a frame in each of its last two steps (both
+        where there are two: in the frames about a bounce the ball is low twice, one step short, moving fast)."""
+        history = self._recent_history()[-3:]
+        if len(history) < 2:
+            return False
+        steps = [math.hypot(x1 - x0, y1 - y0) / (t1 - t0) for (t0, x0, y0), (t1, x1, y1) in zip(history, history[1:])]
+        return max(steps) <= STILL_RADII * radius_px
+
     def _is_duplicate(self, frame, predicted):
         """Whether the whole frame repeats the previous one while the ball was moving."""
         previous = self._previous
@@ -386,14 +401,19 @@ class BallTracker:
         if (result.quality == QUALITY_SHADED and self._shaded_radius_px is None
                 and result.fit_rms_px <= MAX_PARTIAL_FIT_RMS_PX):
             self._shaded_fits = (self._shaded_fits + [result.radius_px])[-SHADED_RADII:]
-            if len(self._recent_history()) >= 1 and self._recent_step_px() <= SHADED_STILL_RADII * result.radius_px:
+            if self._barely_moving(result.radius_px):
                 self._shaded_radii.append(result.radius_px)
         self._history = (self._history + [(self._index, result.x_px, result.y_px)])[-3:]
         if result.quality == QUALITY_OK:
             self._radii = (self._radii + [result.radius_px])[-15:]
-            self._radius_ref = float(fast_median(np.array(self._radii)))
-            enough = len(self._radii) >= MIN_RADII_FOR_SPREAD
-            self._radius_spread = robust_sigma(self._radii, centre=self._radius_ref) if enough else 0.0
+            if self._barely_moving(result.radius_px):
+                self._still_radii = (self._still_radii + [result.radius_px])[-15:]
+            radii = self._still_radii or self._radii
+            # blur only enlarges a ball: before a barely moving one was measured (a track started on a fast
+            # flight), the least blurred so far is nearest its size
+            self._radius_ref = float(fast_median(np.array(radii)) if self._still_radii else min(radii))
+            enough = len(radii) >= MIN_RADII_FOR_SPREAD
+            self._radius_spread = robust_sigma(radii, centre=self._radius_ref) if enough else 0.0
         return result.x_px, result.y_px, result.radius_px, result.quality, result.centre_se_px, result.fit_rms_px
 
 
@@ -516,15 +536,17 @@ def _usable_and_found(rows):
     return int(usable_rows(table).sum()), int((span != QUALITY_DUPLICATE).sum())
 
 
-def _track_in_best_contrast(track, contrasts, first_rows, samples, indices, background):
+def _track_in_best_contrast(track, contrasts, first_rows, samples, indices, background, rescue=None):
     """Rows of the contrast channel with the most usable frames, and that channel.
 
     ``track(background, contrast)`` tracks all frames; ``first_rows`` are those of ``contrasts[0]``
     against ``background``. Each channel's rows are tracked again with the ball cut out of the
-    background where it is in it (:func:`_track_without_ball_in_background`). When fewer than
-    ``ENOUGH_USABLE_FRACTION`` of the frames where the ball was found are usable in the first
-    channel, every other channel is tried, and the one with the most usable frames is kept (ties
-    in the order of :data:`dropfit.video.contrast.CHANNELS`: grey levels first).
+    background where it is in it (:func:`_track_without_ball_in_background`). A channel whose rows are
+    poor (fewer than ``ENOUGH_USABLE_FRACTION`` of the frames where the ball was found are usable) is
+    tracked afresh from the ball's flight, ``rescue(rows, contrast)`` (:class:`_FlightRescue`; None
+    where it finds nothing better). When the first channel is still poor, every other channel is
+    tried, and the one with the most usable frames is kept (ties in the order of
+    :data:`dropfit.video.contrast.CHANNELS`: grey levels first).
     """
     tracked = []
     for contrast in contrasts:
@@ -532,6 +554,11 @@ def _track_in_best_contrast(track, contrasts, first_rows, samples, indices, back
         rows = _track_without_ball_in_background(lambda clean: track(clean, contrast), samples, indices, background,
                                                  rows)
         usable, found = _usable_and_found(rows)
+        if usable < ENOUGH_USABLE_FRACTION * found and rescue is not None:
+            # a channel that followed a hand is judged by how it follows the ball from its flight: the
+            # first-ranked one may measure the ball alone where grey levels merge it with its shadow
+            rows = rescue(rows, contrast) or rows
+            usable, found = _usable_and_found(rows)
         tracked.append((usable, -CHANNELS.index(contrast.name), rows, contrast))
         if len(tracked) == 1 and usable >= ENOUGH_USABLE_FRACTION * found:
             break
@@ -548,8 +575,10 @@ def _track_without_ball_in_background(track, samples, indices, background, rows)
     """Rows of further passes of ``track(background)`` with the ball cut out of the background.
 
     Stops when the ball is not in the background, when the balls in the samples moved less than
-    ``BACKGROUND_SETTLED_PX``, or after ``MAX_BACKGROUND_REFINEMENTS`` passes.
+    ``BACKGROUND_SETTLED_PX``, or after ``MAX_BACKGROUND_REFINEMENTS`` passes, or at once without samples.
     """
+    if not len(indices):
+        return rows
     balls = _sample_balls(rows, indices)
     for _ in range(MAX_BACKGROUND_REFINEMENTS):
         cleaner = background_without_ball(samples, balls, background)
@@ -590,44 +619,55 @@ def _rows_before(rows_back, count):
     return rows[:count]
 
 
-def _started_on_a_flight(rows, frames, background, contrasts, expected_radius_px, hints):
-    """Rows tracked again from the ball's flight when the ``rows`` followed something else; or None.
+class _FlightRescue:
+    """Rows tracked again from the ball's flight, for a channel whose rows followed something else.
 
-    A poor track (fewer than ``ENOUGH_USABLE_FRACTION`` of the frames where something was found are
-    usable) on a clip that starts with hands in view has often followed a hand. The longest
+    A poor track on a clip that starts with hands in view has often followed a hand. The longest
     ballistic flight of round blobs (:func:`dropfit.video.link.find_flight`, in the contrast channels
-    in their order, the first that shows one) is the ball: it is tracked afresh forwards from the
-    flight's first frame, as from a user's ``--ball-at-px``, and backwards from there to the clip's
-    start, in each channel. The channel's rows with the most usable frames are returned, with the
-    channel, when more of them are usable than of ``rows``.
+    in their order, the first that shows one; searched once per clip) is the ball: it is tracked
+    afresh forwards from the flight's first frame, as from a user's ``--ball-at-px``, and backwards
+    from there to the clip's start.
 
     Parameters
     ----------
-    rows : list
-        The tracker's rows so far.
     frames : sequence of numpy.ndarray
         Every frame of the clip, in memory.
+    background : Background
+        The scene.
+    contrasts : list of Contrast
+        The channels, in their ranking's order.
+    expected_radius_px : float or None
+        Expected ball radius, px.
+    hints : TrackerHints
+        What the user says of the ball; with its position given there is nothing to rescue.
     """
-    usable, found = _usable_and_found(rows)
-    if hints.ball_at_px is not None or usable >= ENOUGH_USABLE_FRACTION * found:
-        return None
-    for contrast in contrasts:
-        flight = find_flight(frames, background, contrast)
-        if flight is not None:
-            break
-    else:
-        return None
-    start, x, y = flight.start()
-    from_flight = hints._replace(ball_at_px=(0, x, y))
-    best = None
-    for contrast in contrasts:
-        ahead = _run(frames[start:], background, expected_radius_px, contrast, from_flight)
-        behind = _run(frames[start::-1], background, expected_radius_px, contrast, from_flight)
+
+    def __init__(self, frames, background, contrasts, expected_radius_px, hints):
+        self.frames, self.background, self.contrasts = frames, background, contrasts
+        self.expected_radius_px, self.hints = expected_radius_px, hints
+        self._searched, self._start = False, None
+
+    def _flight_start(self):
+        """(frame, x px, y px) where the longest flight starts, or None."""
+        if not self._searched:
+            self._searched = True
+            for contrast in self.contrasts:
+                flight = find_flight(self.frames, self.background, contrast)
+                if flight is not None:
+                    self._start = flight.start()
+                    break
+        return self._start
+
+    def __call__(self, rows, contrast):
+        """Rows of ``contrast`` tracked from the flight when more of them are usable than of ``rows``; else None."""
+        if self.hints.ball_at_px is not None or self._flight_start() is None:
+            return None
+        start, x, y = self._flight_start()
+        from_flight = self.hints._replace(ball_at_px=(0, x, y))
+        ahead = _run(self.frames[start:], self.background, self.expected_radius_px, contrast, from_flight)
+        behind = _run(self.frames[start::-1], self.background, self.expected_radius_px, contrast, from_flight)
         rescued = _rows_before(behind, start) + ahead
-        rescued_usable = _usable_and_found(rescued)[0]
-        if rescued_usable > (best[0] if best else usable):
-            best = rescued_usable, rescued, contrast
-    return best[1:] if best else None
+        return rescued if _usable_and_found(rescued)[0] > _usable_and_found(rows)[0] else None
 
 
 def _table(rows, times_s):
@@ -685,9 +725,8 @@ def track_frames(frames, times_s, expected_radius_px=None, *, background=None, s
         background, contrasts = scene_and_contrasts(samples, expected_radius_px, hints.ball_colour_bgr)
         rows, contrast = _track_in_best_contrast(
             lambda clean, contrast: _run(frames, clean, expected_radius_px, contrast, hints), contrasts,
-            _run(frames, background, expected_radius_px, contrasts[0], hints), samples, indices, background)
-        rows, contrast = _started_on_a_flight(rows, frames, background, contrasts, expected_radius_px, hints) or (
-            rows, contrast)
+            _run(frames, background, expected_radius_px, contrasts[0], hints), samples, indices, background,
+            _FlightRescue(frames, background, contrasts, expected_radius_px, hints))
     else:
         contrast = contrast_of(GREY, (), background)
         rows = _run(frames, background, expected_radius_px, contrast, hints)
@@ -865,19 +904,17 @@ def track_video_and_background(path, capture_fps=None, expected_radius_px=None, 
                          f"test needs at least {MIN_FRAMES}, and tens in each flight")
     position = {stamp: index for index, stamp in enumerate(stamps)}
     found = [(position[stamp], image) for stamp, image in samples if stamp in position]
-    contrast = contrasts[0]
-    if found:
-        indices, images = zip(*found)
+    indices, images = zip(*found) if found else ((), ())
+    # (a clip too long to keep in memory is not tracked again from a flight)
+    rescue = _FlightRescue(list(kept.frames(background)), background, contrasts, expected_radius_px, hints) \
+        if kept.whole else None
 
-        def track(clean, contrast):
-            # crops about the first channel's ball serve that channel only; another one reads the file again
-            frames = kept.frames(clean) if kept.whole or contrast is contrasts[0] else _decoded_frames(path)
-            return _run(frames, clean, expected_radius_px, contrast, hints)
+    def track(clean, contrast):
+        # crops about the first channel's ball serve that channel only; another one reads the file again
+        frames = kept.frames(clean) if kept.whole or contrast is contrasts[0] else _decoded_frames(path)
+        return _run(frames, clean, expected_radius_px, contrast, hints)
 
-        rows, contrast = _track_in_best_contrast(track, contrasts, rows, list(images), list(indices), background)
-    if kept.whole:  # (a clip too long to keep in memory is not tracked again from a flight)
-        rows, contrast = _started_on_a_flight(rows, list(kept.frames(background)), background, contrasts,
-                                              expected_radius_px, hints) or (rows, contrast)
+    rows, contrast = _track_in_best_contrast(track, contrasts, rows, list(images), list(indices), background, rescue)
     container_fps = float(info.container_fps) if info.container_fps else math.nan
     times, how = frame_times(stamps, container_fps, capture_fps, path)
     table = _table(rows, times)
