@@ -10,6 +10,7 @@ from dropfit.video import limits as video_limits
 from dropfit.analysis import analyse_bounces
 from dropfit.contact import LinearContact
 from dropfit.errors import InputError
+from dropfit.physics import STANDARD_GRAVITY_M_S2
 from dropfit.synth import simulate_drop
 from dropfit.video.track import TrackedVideo
 from dropfit.videolog import trajectory_from_video
@@ -138,6 +139,78 @@ def test_late_short_flights_are_dropped_with_a_reason_and_the_rest_kept(drop):
     assert kept.summary["impacts_dropped"][0].startswith(f"impact {first_short + 1}: the flight")
     true_e = drop.impacts["e"].to_numpy()[:first_short]
     assert np.all(np.abs(kept.impacts["e"].to_numpy() - true_e) < E_TOLERANCE)
+
+
+def test_a_fall_filmed_in_too_few_clean_frames_leaves_e1_out_and_keeps_the_later_impacts(drop):
+    """A clip that sees the drop's fall in 6 clean frames (the hand hides the ball before, blur in between: 3 at
+    its top, 3 near the floor): impact 1 has no e (its note says why) and is in no fit; the impacts after it
+    are kept, with the generator's e."""
+    fps = 60.0
+    table = tracked_table(drop, fps=fps, duration_s=2.6)
+    time = table["time_s"].to_numpy()
+    heights = (FLOOR_ROW_PX - table["y_px"].to_numpy()) / PX_PER_M
+    fall = np.flatnonzero((time > drop.release_time_s) & (time < float(drop.impacts["t_s"].iloc[0])))
+    heights[time <= drop.release_time_s] = np.nan
+    heights[fall[3:-3]] = np.nan
+    analysis = analyse_bounces(time, heights, contact_height_m=BALL_RADIUS_M)
+    kept = video_limits.select_resolved_impacts(analysis, "clip.avi", 1.0 / fps)
+    clean = video_limits.MIN_CLEAN_FRAMES_PER_FLIGHT
+    first = kept.impacts.iloc[0]
+    assert np.isnan(first["e"]) and np.isnan(first["v_in_m_s"]) and not first["in_fit"]
+    before = int(first["n_samples_before"])
+    assert first["note"] == f"clean frames in the flight before it: {before} < {clean}: its e is not given"
+    assert kept.e_covariance[0].tolist() == [0.0] * len(kept.impacts)
+    later = kept.impacts.iloc[1:]
+    assert len(later) >= 2 and later["in_fit"].all()
+    true_e = drop.impacts["e"].to_numpy()[1: len(kept.impacts)]
+    assert np.all(np.abs(later["e"].to_numpy() - true_e) < E_TOLERANCE)
+
+
+def _fall_seen_at_its_top_only(drop, fps=60.0, clean_frames=6):
+    """Time (s) and heights (m) of a clip whose drop shows in its first ``clean_frames`` falling frames only."""
+    table = tracked_table(drop, fps=fps, duration_s=2.6)
+    time = table["time_s"].to_numpy()
+    heights = (FLOOR_ROW_PX - table["y_px"].to_numpy()) / PX_PER_M
+    fall = np.flatnonzero((time > drop.release_time_s) & (time < float(drop.impacts["t_s"].iloc[0])))
+    heights[time <= drop.release_time_s] = np.nan
+    heights[fall[clean_frames:]] = np.nan
+    return time, heights
+
+
+def test_a_first_flight_that_rises_from_the_floor_is_named_a_bounce_with_no_drop_height(drop):
+    """Without a frame near the floor, impact 1 is not found: the analysis starts at flight 1, whose rise
+    from the floor is in the samples. It says so, and gives no drop height (a release at its apex it is not)."""
+    time, heights = _fall_seen_at_its_top_only(drop)
+    analysis = analyse_bounces(time, heights, contact_height_m=BALL_RADIUS_M)
+    assert analysis.impacts["t_touchdown_s"].iloc[0] == pytest.approx(drop.impacts["t_s"].iloc[1], abs=1e-3)
+    assert any(note.startswith("flight 0 is a bounce, not a drop") for note in analysis.summary["notes"])
+    assert not any(note.startswith("the ball was held") for note in analysis.summary["notes"])
+    assert np.isnan(analysis.summary["drop_height_m"]) and analysis.summary["first_flight_is_a_bounce"]
+
+
+def test_a_ball_tossed_up_from_a_hand_is_a_drop_from_its_apex(drop):
+    """The same flight rising from a hand at 0.7 of its apex height (a toss) is a drop from the apex."""
+    fps = 60.0
+    table = tracked_table(drop, fps=fps, duration_s=2.6)
+    time = table["time_s"].to_numpy()
+    heights = (FLOOR_ROW_PX - table["y_px"].to_numpy()) / PX_PER_M
+    apex = float(drop.height(np.array([0.0]))[0])
+    rise_s = np.sqrt(2 * 0.3 * (apex - BALL_RADIUS_M) / STANDARD_GRAVITY_M_S2)  # from 0.7 of the apex height
+    before = time < drop.release_time_s
+    rising = before & (time > drop.release_time_s - rise_s)
+    heights[rising] = apex - 0.5 * STANDARD_GRAVITY_M_S2 * (time[rising] - drop.release_time_s) ** 2
+    heights[before & ~rising] = np.nan  # in the hand
+    analysis = analyse_bounces(time, heights, contact_height_m=BALL_RADIUS_M)
+    assert not analysis.summary["first_flight_is_a_bounce"]
+    assert analysis.summary["drop_height_m"] == pytest.approx(apex - BALL_RADIUS_M, abs=2e-3)
+
+
+def test_a_clip_with_no_resolved_impact_is_refused_naming_the_first(drop):
+    table = tracked_table(drop, fps=60.0, duration_s=2.6)
+    heights = (FLOOR_ROW_PX - table["y_px"].to_numpy()) / PX_PER_M
+    analysis = analyse_bounces(table["time_s"].to_numpy(), heights, contact_height_m=BALL_RADIUS_M)
+    with pytest.raises(InputError, match="clip.avi: not analysable: impact 1: the flight before it lasts"):
+        video_limits.select_resolved_impacts(analysis, "clip.avi", 1.0)  # 1 frame/s: no flight spans 8 frames
 
 
 # --- refusals through the workflow's own entry points ---------------------------------------------

@@ -490,12 +490,16 @@ def _figure_png(trajectory, flights, impacts, analysis, fit):
 
     heights = pd.DataFrame(fit["theory"]["heights"])
     h0 = fit["drop_height_m"]
-    bounce = np.concatenate([[0], heights["bounce"]])
-    ax_h.errorbar(bounce, np.concatenate([[h0["value"]], heights["measured_m"]]),
-                  yerr=Z95 * np.concatenate([[h0["se"]], heights["measured_se_m"]]), fmt="o", ms=4, capsize=3,
-                  color="tab:blue", label="measured apex $h_n$")
-    ax_h.plot(bounce, np.concatenate([[h0["value"]], heights["predicted_m"]]), "-", color="tab:orange",
-              label="$e^{2n} h_0$ (constant e, no drag)")
+    if h0.get("value") is not None and np.isfinite(h0["value"]):
+        bounce = np.concatenate([[0], heights["bounce"]])
+        ax_h.errorbar(bounce, np.concatenate([[h0["value"]], heights["measured_m"]]),
+                      yerr=Z95 * np.concatenate([[h0["se"]], heights["measured_se_m"]]), fmt="o", ms=4, capsize=3,
+                      color="tab:blue", label="measured apex $h_n$")
+        ax_h.plot(bounce, np.concatenate([[h0["value"]], heights["predicted_m"]]), "-", color="tab:orange",
+                  label="$e^{2n} h_0$ (constant e, no drag)")
+    else:  # flight 0 followed a bounce that was not found: no drop height to start from
+        ax_h.errorbar(heights["bounce"], heights["measured_m"], yerr=Z95 * heights["measured_se_m"], fmt="o", ms=4,
+                      capsize=3, color="tab:blue", label="measured apex $h_n$ (no drop height)")
     _decimal_log_axis(ax_h)
     ax_h.set_xlabel("bounce number n (count)")
     ax_h.set_ylabel("apex height above contact $h_n$ (m)")

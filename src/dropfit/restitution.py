@@ -187,9 +187,9 @@ def itf_rebound(drop_height_m, drop_height_se_m, first_rebound_m, first_rebound_
                         absolute_step=1e-7)
     covariance = np.array([[e_se**2, e_drag_covariance], [e_drag_covariance, drag_k_se_per_m**2]])
     result = estimate(value, np.sqrt(max(propagate(gradient, covariance)[0, 0], 0.0)), "m")
-    result["method"] = f"predicted for a {100 * itf_drop_height_m:.0f} cm drop (measured drop " \
-                       f"{100 * drop_height_m:.1f} cm) with e = {e:.4f} from {e_source} and drag k = " \
-                       f"{drag_k_per_m:.4g} 1/m"
+    measured = f"measured drop {100 * drop_height_m:.1f} cm" if np.isfinite(drop_height_m) else "no drop measured"
+    result["method"] = f"predicted for a {100 * itf_drop_height_m:.0f} cm drop ({measured}) with e = {e:.4f} " \
+                       f"from {e_source} and drag k = {drag_k_per_m:.4g} 1/m"
     return result
 
 

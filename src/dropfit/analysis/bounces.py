@@ -202,7 +202,12 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
     release_time = float(fit.bounds[0][0]) + origin
     notes = [note for note in notes if not note.startswith("the ball was held")]
     hand = int(np.count_nonzero(segmentation.time + origin < release_time - 1e-6))
-    if hand:
+    rising = rising_into_first_apex(fit, problem.subset(keep))
+    if rising >= MIN_SAMPLES_PER_FLIGHT:
+        notes.append(f"flight 0 is a bounce, not a drop: {rising} samples before it rise into its apex along its "
+                     f"free flight, so an impact before them was not found (too few samples about it): the impacts "
+                     f"are numbered from the first one found, and flight 0's apex is no drop height")
+    elif hand:
         notes.append(f"the ball was held or moved by hand until {release_time:.4f} s: the {hand} samples before the "
                      f"free fall are left out")
     extra_parts, drag_note = implausible_drag(fit, problem.subset(keep), held_k)
@@ -222,7 +227,7 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
                    "noise_correlation": noise_correlation, "gravity_se_m_s2": float(gravity_se_m_s2),
                    "gravity_scaled": bool(gravity_scaled), "extra_parts": extra_parts}
     data = {"release_time_s": release_time, "hand_samples": hand, "tracking_jump_samples": int(segmentation.outliers.size),
-            "residual_outlier_samples": int(left_out)}
+            "residual_outlier_samples": int(left_out), "first_flight_is_a_bounce": rising >= MIN_SAMPLES_PER_FLIGHT}
     return _assemble(fit, bics, problem.subset(keep), origin, source, uncertainty, data, notes, kinds)
 
 
@@ -446,6 +451,31 @@ def release_extension(fit, problem):
     return float(problem.t[fitting[-1]]) if fitting.size else None
 
 
+#: Flight 0 follows a bounce that was not found when samples before it rise along its free flight from below
+#: this fraction of its apex height above the contact height: a ball tossed up from a hand rises from the
+#: hand's height, a ball bouncing from the floor.
+BOUNCE_RISE_FRACTION = 0.5
+
+
+def rising_into_first_apex(fit, problem):
+    """How many samples before flight 0's start lie on its rising branch, below its apex, when the lowest of
+    them is below ``BOUNCE_RISE_FRACTION`` of the apex height (else 0): a ball released from rest at the apex
+    has none (a hand holds it still or moves it otherwise), and a tossed one rises from the hand; a flight 0
+    that follows a bounce the segmentation did not find (a fall filmed in a few blurred frames) has its rise
+    from the floor."""
+    y_apex, t_apex, k = fit.model.unpack(fit.result.x)
+    before = problem.t < fit.bounds[0][0]
+    if not before.any():
+        return 0
+    t, y = problem.t[before], problem.y[before]
+    on_branch = np.abs(flight_height(t, t_apex[0], y_apex[0], k, problem.g) - y) <= RELEASE_SIGMAS * problem.noise
+    rising = on_branch & (y < y_apex[0] - RELEASE_SIGMAS * problem.noise) & (t < t_apex[0])
+    contact = float(np.atleast_1d(unpack_quantities(fit.quantities(fit.result.x), fit.quantities.n_impacts)
+                                  ["contact_height_m"])[0])
+    from_floor = rising.any() and y[rising].min() - contact < BOUNCE_RISE_FRACTION * (y_apex[0] - contact)
+    return int(np.count_nonzero(rising)) if from_floor else 0
+
+
 def residual_outliers(fit, noise):
     """Positions (in the fit's samples) of the samples whose residual is an outlier."""
     residual = fit.result.fun
@@ -608,9 +638,11 @@ def _assemble(fit, bics, problem, origin, source, uncertainty, data, notes, ball
         "sample_interval_s": sample_interval,
         **data,
         "drop_apex_time_s": float(t_apex[0]) + origin,
-        "drop_height_m": float(values["apex_height_m"][0]),
-        "drop_height_se_m": float(errors["apex_height_m"][0]),
-        "drop_height_scale_se_m": float(scale_errors["apex_height_m"][0]),
+        # flight 0 after a bounce that was not found has no drop height
+        **({"drop_height_m": np.nan, "drop_height_se_m": np.nan, "drop_height_scale_se_m": np.nan}
+           if data["first_flight_is_a_bounce"] else
+           {"drop_height_m": float(values["apex_height_m"][0]), "drop_height_se_m": float(errors["apex_height_m"][0]),
+            "drop_height_scale_se_m": float(scale_errors["apex_height_m"][0])}),
         "rest_time_s": rest_time(problem.t, problem.y, contact, problem.noise, IMPACT_DEPTH_IN_NOISE,
                                  after=float(values["t_liftoff_s"][-1])) + origin,
         "gravity_m_s2": problem.g,

@@ -32,7 +32,7 @@ import math
 
 import numpy as np
 
-from ..analysis import estimate_noise
+from ..analysis import estimate_noise, se_column_name
 from ..errors import InputError, shown_path
 from ..physics import STANDARD_GRAVITY_M_S2
 from .quality import (QUALITY_DUPLICATE, QUALITY_LOST, QUALITY_OCCLUDED, QUALITY_PARTIAL, QUALITY_SHADED,
@@ -61,6 +61,9 @@ MIN_FRAME_INTERVALS_PER_FLIGHT = 8
 #: 3 standard errors off, and 7 or more were right. The 1000 frames/s close-up sees 12 clean frames
 #: before its contact and gives e within 5 × 10⁻⁵ (tests/test_videolog.py).
 MIN_CLEAN_FRAMES_PER_FLIGHT = 7
+#: Columns of an impact that the flight before it decides (with their se and interval): NaN where that
+#: flight is too sparsely sampled and a later impact is resolved (:func:`select_resolved_impacts`).
+UNRESOLVED_IMPACT_COLUMNS = ("v_in_m_s", "e", "flight_time_ratio", "t_contact_ms")
 #: Fewest clean frames in a recording: the two flights around a first impact.
 MIN_CLEAN_FRAMES = 2 * MIN_CLEAN_FRAMES_PER_FLIGHT
 
@@ -294,7 +297,12 @@ def flight_spans(analysis, frame_interval_s):
 
 
 def select_resolved_impacts(analysis, source, frame_interval_s):
-    """Keep the impacts whose two flights are both sampled densely enough, up to the first that is not.
+    """Keep the impacts whose two flights are both sampled densely enough, from the first that is to the first
+    after it that is not; the impacts before the first resolved one keep their rows with no e.
+
+    A clip at 30 frames/s often films the drop's fast fall in too few clean frames (a white ball blurred into
+    the wall, a hand in view) and the bounces after it well: their e is measured, and the first impacts say
+    why theirs is not.
 
     Parameters
     ----------
@@ -309,27 +317,47 @@ def select_resolved_impacts(analysis, source, frame_interval_s):
     -------
     dropfit.analysis.BounceAnalysis
         The same analysis with the impacts (and their flights, covariances and ``n_impacts``) from
-        the first unresolved impact on removed; ``summary["impacts_dropped"]`` gives the reason
-        (empty when all impacts are kept).
+        the first unresolved impact after a resolved one on removed; the unresolved impacts before the
+        first resolved one have no e, impact speed, flight-time ratio or contact time (NaN, out of
+        every fit, the reason in their note). ``summary["impacts_dropped"]`` gives the reasons (empty
+        when all impacts are kept).
 
     Raises
     ------
     InputError
-        When the first impact is unresolved: nothing is left to report.
+        When no impact is resolved: nothing is left to report.
     """
     spans = flight_spans(analysis, frame_interval_s)
     reasons = [flight_violation(row, before, after)
                for (_, row), before, after in zip(analysis.impacts.iterrows(), *spans)]
-    kept = next((i for i, reason in enumerate(reasons) if reason is not None), len(reasons))
-    if kept == 0:
+    first = next((i for i, reason in enumerate(reasons) if reason is None), None)
+    if first is None:
         raise InputError(f"{shown_path(source)}: not analysable: {reasons[0]}")
+    kept = next((i for i in range(first, len(reasons)) if reasons[i] is not None), len(reasons))
     n = len(reasons)
     pair = np.r_[0:kept, n: n + kept]  # e_1…e_kept and their contact times
-    summary = dict(analysis.summary, n_impacts=kept,
-                   impacts_dropped=[] if kept == len(reasons) else
-                   [f"{reasons[kept]}; this and the {len(reasons) - kept - 1} later impacts dropped"])
-    return dataclasses.replace(analysis, impacts=analysis.impacts.iloc[:kept].reset_index(drop=True),
-                               flights=analysis.flights.iloc[: kept + 1].reset_index(drop=True),
-                               e_covariance=analysis.e_covariance[:kept, :kept],
-                               e_contact_covariance=analysis.e_contact_covariance[np.ix_(pair, pair)],
-                               e_drag_covariance=analysis.e_drag_covariance[:kept], summary=summary)
+    impacts = analysis.impacts.iloc[:kept].reset_index(drop=True)
+    e_covariance = analysis.e_covariance[:kept, :kept].copy()
+    e_contact_covariance = analysis.e_contact_covariance[np.ix_(pair, pair)].copy()
+    e_drag_covariance = analysis.e_drag_covariance[:kept].copy()
+    dropped = []
+    if first:
+        unresolved = np.arange(first)
+        for name in UNRESOLVED_IMPACT_COLUMNS:
+            for column in (name, se_column_name(name), se_column_name(name, "ci95_low"),
+                           se_column_name(name, "ci95_high")):
+                impacts.loc[unresolved, column] = np.nan
+        impacts.loc[unresolved, "contact_resolvable"] = False
+        impacts.loc[unresolved, "in_fit"] = False
+        impacts.loc[unresolved, "note"] = [reasons[i].split(": ", 1)[1] + ": its e is not given" for i in range(first)]
+        for matrix, rows in ((e_covariance, unresolved), (e_contact_covariance, np.r_[unresolved, kept + unresolved])):
+            matrix[rows, :] = 0.0
+            matrix[:, rows] = 0.0
+        e_drag_covariance[unresolved] = 0.0
+    if kept < n:
+        dropped.append(f"{reasons[kept]}; this and the {n - kept - 1} later impacts dropped")
+    summary = dict(analysis.summary, n_impacts=kept, impacts_dropped=dropped)
+    flights = analysis.flights.iloc[: kept + 1].reset_index(drop=True)
+    return dataclasses.replace(analysis, impacts=impacts, flights=flights, e_covariance=e_covariance,
+                               e_contact_covariance=e_contact_covariance, e_drag_covariance=e_drag_covariance,
+                               summary=summary)
