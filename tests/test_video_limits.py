@@ -10,6 +10,8 @@ from dropfit.video import limits as video_limits
 from dropfit.analysis import analyse_bounces
 from dropfit.contact import LinearContact
 from dropfit.errors import InputError
+from dropfit.heightlog import make_trajectory
+from dropfit.pipeline import analyse_trajectory
 from dropfit.physics import STANDARD_GRAVITY_M_S2
 from dropfit.synth import simulate_drop
 from dropfit.video.track import TrackedVideo
@@ -270,6 +272,33 @@ def test_a_tracked_ball_that_does_not_fall_with_g_is_refused_with_what_was_track
     assert message.startswith(f"{tmp_path / 'clip.mov'}: not analysable: the tracked ball falls with 0.005 m/s², "
                               f"not g: it was measured in 100 of 300 frames, over 0.01 m of height")
     assert "--ball-at-px" in message and "column names" not in message and "\n" not in message
+
+
+def test_a_video_whose_every_impact_gains_height_is_refused_with_the_tracking_as_the_cause(tmp_path):
+    """Flights that rise higher after each bounce (apexes 0.20, 0.26, 0.33, 0.42 m: a tracker that followed
+    something else): no impact gives a physical e, and the refusal says so with what was tracked, not that
+    nothing is left to fit."""
+    fps, g = 60.0, STANDARD_GRAVITY_M_S2
+    apexes = [0.20, 0.26, 0.33, 0.42]
+    times, heights, start = [], [], 0.2
+    for number, apex in enumerate(apexes):
+        half = np.sqrt(2 * apex / g)
+        t_apex = start if number == 0 else start + half
+        end = t_apex + half
+        t = np.arange(np.ceil(start * fps), np.floor(end * fps) + 1) / fps
+        times.append(t)
+        heights.append(np.maximum(apex - 0.5 * g * (t - t_apex) ** 2, 0.0))
+        start = end
+    time, height = np.concatenate(times), np.concatenate(heights)
+    height = height + np.random.default_rng(0).normal(0.0, 2e-4, height.size)
+    trajectory = make_trajectory(time, height, str(tmp_path / "clip.mov"), "scale from gravity",
+                                 {"video": str(tmp_path / "clip.mov"), "ball_radius_m": BALL_RADIUS_M})
+    trajectory["quality"] = ("time", np.zeros(time.size, np.int8))
+    with pytest.raises(InputError) as refused:
+        analyse_trajectory(trajectory)
+    message = str(refused.value)
+    assert message.startswith(f"{tmp_path / 'clip.mov'}: not analysable: no impact gives a physical e (impact 1: "
+                              f"e > 1"), message
 
 
 def test_an_analysis_refusal_of_a_poorly_tracked_video_says_what_was_tracked(tmp_path):
