@@ -81,8 +81,8 @@ MIN_RADII_FOR_SPREAD = 4
 #: such frames at an apex). Held apart from the ``ok`` balls' radius: the lit side's edge is not where the
 #: coverage of a whole ball crosses one half.
 SHADED_RADII = 3
-#: A ball that moved less than this many of its radii since the last frame is barely blurred; its size is
-#: learnt from such frames. A blurred ball's lit side is not a circle's and fits a radius several per cent
+#: A ball that moved less than this many of its radii a frame in each of its last two steps is barely blurred;
+#: its size is learnt from such frames. A blurred ball's lit side is not a circle's and fits a radius several per cent
 #: short (a 15 px ball streaked over half its radius: 14.0 px); its coverage in a colour channel at half
 #: resolution reads larger (phonesim's red ball: 12.3 px at its apex, 14-14.6 px falling at 30 frames/s),
 #: and a reference learnt from those flags the ball at its apex occluded.
