@@ -401,7 +401,9 @@ class BallTracker:
         if (result.quality == QUALITY_SHADED and self._shaded_radius_px is None
                 and result.fit_rms_px <= MAX_PARTIAL_FIT_RMS_PX):
             self._shaded_fits = (self._shaded_fits + [result.radius_px])[-SHADED_RADII:]
-            if self._barely_moving(result.radius_px):
+            # judged by the last step alone: asking for two still steps held another radius for phonesim's white
+            # ball (seed 3, half size), and with it the tracker followed a round shadow at the floor for 6 frames
+            if len(self._recent_history()) >= 1 and self._recent_step_px() <= STILL_RADII * result.radius_px:
                 self._shaded_radii.append(result.radius_px)
         self._history = (self._history + [(self._index, result.x_px, result.y_px)])[-3:]
         if result.quality == QUALITY_OK:
