@@ -266,10 +266,11 @@ def analyse_trajectory(trajectory, settings=None, source=None):
     if "video" in attrs:  # a video's later bounces may be too briefly filmed to resolve
         analysis = video_limits.select_resolved_impacts(analysis, attrs["video"], interval)
         if not analysis.impacts["in_fit"].any():  # every e unphysical: the tracking, not the ball, is the cause
-            reason = str(analysis.impacts["note"].iloc[0]).split(";")[0]
+            first = analysis.impacts[np.isfinite(analysis.impacts["e"])].iloc[0]  # (a resolved impact has an e)
+            reason = str(first["note"]).split(";")[0]
             raise InputError(video_limits.analysis_refusal(
-                f"{shown_path(attrs['video'])}: not analysable: no impact gives a physical e (impact 1: {reason})",
-                trajectory))
+                f"{shown_path(attrs['video'])}: not analysable: no impact gives a physical e (impact "
+                f"{int(first['impact'])}: {reason})", trajectory))
     if "x" in trajectory:  # a 2-D recording: the tangential velocities and angles (e stays the vertical fit's)
         analysis = add_horizontal(analysis, time, trajectory["x"].values, options["noise_correlation"])
     record = {key: plain(value) for key, value in options.items() if key != "source"}

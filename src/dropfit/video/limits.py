@@ -340,7 +340,6 @@ def select_resolved_impacts(analysis, source, frame_interval_s):
     e_covariance = analysis.e_covariance[:kept, :kept].copy()
     e_contact_covariance = analysis.e_contact_covariance[np.ix_(pair, pair)].copy()
     e_drag_covariance = analysis.e_drag_covariance[:kept].copy()
-    dropped = []
     if first:
         unresolved = np.arange(first)
         for name in UNRESOLVED_IMPACT_COLUMNS:
@@ -354,8 +353,7 @@ def select_resolved_impacts(analysis, source, frame_interval_s):
             matrix[rows, :] = 0.0
             matrix[:, rows] = 0.0
         e_drag_covariance[unresolved] = 0.0
-    if kept < n:
-        dropped.append(f"{reasons[kept]}; this and the {n - kept - 1} later impacts dropped")
+    dropped = [f"{reasons[kept]}; this and the {n - kept - 1} later impacts dropped"] if kept < n else []
     summary = dict(analysis.summary, n_impacts=kept, impacts_dropped=dropped)
     flights = analysis.flights.iloc[: kept + 1].reset_index(drop=True)
     return dataclasses.replace(analysis, impacts=impacts, flights=flights, e_covariance=e_covariance,
