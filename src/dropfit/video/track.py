@@ -297,22 +297,21 @@ class BallTracker:
             result = self._measure_around(frame, (result.x_px, result.y_px), 4.0 * r + 2 * WINDOW_MARGIN_PX)
         return result
 
+    def _recent_steps_px(self):
+        """How far the ball moved a frame in each step between its last found centres (at most two steps), px."""
+        history = self._recent_history()[-3:]
+        return [math.hypot(x1 - x0, y1 - y0) / (t1 - t0) for (t0, x0, y0), (t1, x1, y1) in zip(history, history[1:])]
+
     def _recent_step_px(self):
         """How far the ball moved a frame between its last two found centres, px (0 before two)."""
-        history = self._recent_history()
-        if len(history) < 2:
-            return 0.0
-        (t0, x0, y0), (t1, x1, y1) = history[-2:]
-        return math.hypot(x1 - x0, y1 - y0) / (t1 - t0)
+        steps = self._recent_steps_px()
+        return steps[-1] if steps else 0.0
 
     def _barely_moving(self, radius_px):
         """Whether the ball moved less than ``STILL_RADII`` radii a frame in each of its last two steps (both
         where there are two: in the frames about a bounce the ball is low twice, one step short, moving fast)."""
-        history = self._recent_history()[-3:]
-        if len(history) < 2:
-            return False
-        steps = [math.hypot(x1 - x0, y1 - y0) / (t1 - t0) for (t0, x0, y0), (t1, x1, y1) in zip(history, history[1:])]
-        return max(steps) <= STILL_RADII * radius_px
+        steps = self._recent_steps_px()
+        return bool(steps) and max(steps) <= STILL_RADII * radius_px
 
     def _is_duplicate(self, frame, predicted):
         """Whether the whole frame repeats the previous one while the ball was moving."""
