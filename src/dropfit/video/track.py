@@ -6,7 +6,9 @@ The camera is static, so the scene without the ball is one image, the background
 lone, roughly circular blobs (:func:`dropfit.video.detect.find_ball`). Afterwards the position is
 predicted from the last three positions (constant acceleration) and only a window of about four
 radii around the prediction is measured (:func:`dropfit.video.detect.measure_ball`, which gives the
-quality flags ``ok``, ``blurred``, ``partial``, ``shaded`` and ``occluded``). The tracker adds two flags:
+quality flags ``ok``, ``blurred``, ``partial``, ``shaded`` and ``occluded``). While the ball is measured merged
+with something (``occluded``), a lone disc found by a search replaces it; when the merged blob was moving about
+far from that disc (pieces of a hand), its positions are dropped from the prediction. The tracker adds two flags:
 
 ``lost``
     No ball was found (it left the image, or it is hidden): ``x_px``, ``y_px`` and ``radius_px``
@@ -103,6 +105,9 @@ WINDOW_MARGIN_PX = 6
 LOCAL_SEARCH_RADII = 8.0
 LOCAL_SEARCH_MIN_PX = 80
 OCCLUDED_FULL_SEARCH_STRIDE = 4
+#: A lone ball found by a search more than this many radii from the merged blob followed until then, when that
+#: blob was not still (a hand moving about), ends the tracker's history (which predicts the next centre).
+JUMP_RADII = 4.0
 #: At most this many further tracking passes, each with the ball cut out of the background samples
 #: where the previous pass found it; they stop once the sampled balls move less than
 #: BACKGROUND_SETTLED_PX between passes.
@@ -313,6 +318,15 @@ class BallTracker:
         steps = self._recent_steps_px()
         return bool(steps) and max(steps) <= STILL_RADII * radius_px
 
+    def _another_object(self, merged, lone):
+        """Whether the ``merged`` blob that was followed is another object than the ``lone`` ball a search found:
+        more than ``JUMP_RADII`` radii from it, and it was not still. A ball held still in a hand is where it
+        will be released; a lone disc far from it is something else (a ghost of the ball in the background,
+        where it rests at the clip's end). A blob that jumped about (parts of a hand) predicts nothing."""
+        radius = self.radius_ref_px or lone.radius_px
+        far = math.hypot(merged.x_px - lone.x_px, merged.y_px - lone.y_px) > JUMP_RADII * radius
+        return far and not self._barely_moving(radius)
+
     def _is_duplicate(self, frame, predicted):
         """Whether the whole frame repeats the previous one while the ball was moving."""
         previous = self._previous
@@ -389,6 +403,10 @@ class BallTracker:
                 near = (result.x_px, result.y_px, reach)
             searched = self._search(frame, near)
             if result is None or result.truncated or (searched is not None and searched.quality in FOUND_ALONE):
+                if occluded and searched is not None and self._another_object(result, searched):
+                    # the blob followed was not the ball (a hand that let it go): its positions do not predict
+                    # the ball's
+                    self._history = []
                 result = searched
         if result is None:
             return math.nan, math.nan, math.nan, QUALITY_LOST, math.nan, math.nan
