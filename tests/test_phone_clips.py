@@ -106,6 +106,8 @@ def test_phone_clip_numbers(tmp_path, preset, options, impacts_checked, known_sh
     ("green_board_avi", 1, 0.95),
     ("yellow_green_tape", 1, 0.9),
     ("white_pingpong_mov", 1, 0.65),
+    # 707 frames too many to keep whole: the tracker's later passes run on crops about the first pass's ball
+    ("yellow_flicker_portrait_120", 0, 0.8),
 ])
 def test_phone_clip_ball_is_tracked_in_colour(tmp_path, preset, seed, min_fraction, capsys):
     """The ball a phone films (green on a white board with its shadow touching it and a hand catching it;

@@ -105,6 +105,9 @@ WINDOW_MARGIN_PX = 6
 LOCAL_SEARCH_RADII = 8.0
 LOCAL_SEARCH_MIN_PX = 80
 OCCLUDED_FULL_SEARCH_STRIDE = 4
+#: A prediction more than this many radii a frame from the last found centre is not a ball's (a fall of 3 m
+#: filmed at 24 frames/s moves a table-tennis ball 16 of its radii a frame): the frame is searched instead.
+MAX_STEP_RADII = 20.0
 #: A lone ball found by a search more than this many radii from the merged blob followed until then, when that
 #: blob was not still (a hand moving about), ends the tracker's history (which predicts the next centre).
 JUMP_RADII = 4.0
@@ -227,6 +230,9 @@ class BallTracker:
         last = history[-1]
         step = math.hypot(predicted[0] - last[1], predicted[1] - last[2])
         gap = self._index - last[0]
+        if self.radius_ref_px and step > MAX_STEP_RADII * self.radius_ref_px * gap:
+            # no ball moves that far: the history mixes other objects with it; the frame is searched
+            return None, 0.0, None
         return predicted, step, ((predicted[0] - last[1]) / gap, (predicted[1] - last[2]) / gap)
 
     def _measure_around(self, frame, centre, half_size, motion_px=None):
@@ -928,9 +934,14 @@ def track_video_and_background(path, capture_fps=None, expected_radius_px=None, 
     rescue = _FlightRescue(list(kept.frames(background)), background, contrasts, expected_radius_px, hints) \
         if kept.whole else None
 
+    usable, found = _usable_and_found(rows)
+    crops_hold_the_ball = usable >= ENOUGH_USABLE_FRACTION * found
+
     def track(clean, contrast):
-        # crops about the first channel's ball serve that channel only; another one reads the file again
-        frames = kept.frames(clean) if kept.whole or contrast is contrasts[0] else _decoded_frames(path)
+        # crops about the first channel's ball serve that channel only, and only where that pass followed the ball
+        # (crops about what a poor pass followed lose the ball in every later pass); else the file is read again
+        reuse = kept.whole or (contrast is contrasts[0] and crops_hold_the_ball)
+        frames = kept.frames(clean) if reuse else _decoded_frames(path)
         return _run(frames, clean, expected_radius_px, contrast, hints)
 
     rows, contrast = _track_in_best_contrast(track, contrasts, rows, list(images), list(indices), background, rescue)
