@@ -184,7 +184,9 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
             continue
         unresolved = first_unresolved_impact(fit, problem.noise)
         if unresolved is None:
-            floor_note = implausible_contact_height(fit, longest, ball_radius_m)
+            floor_note = None if problem.contact_height is None else implausible_contact_height(
+                fit, longest, ball_radius_m, contact_time_se(fit, held_drag, contact_height_se_m=contact_height_se_m,
+                                                             noise_correlation=noise_correlation))
             if floor_note is None:
                 break
             # a contact height the flights contradict is not a measurement: model it from the flights
@@ -395,13 +397,27 @@ def implausible_drag(fit, problem, nominal_k):
 
 
 #: A given contact height is rejected when the contacts it implies last this many times longer than
-#: the ball can have (the contact-time check of the report flags smaller excesses).
+#: the ball can have, or longer by more than CONTACT_HEIGHT_REJECTION_SE of their standard errors.
 CONTACT_HEIGHT_REJECTION_FACTOR = 1.5
+CONTACT_HEIGHT_REJECTION_SE = 2.0
 
 
-def implausible_contact_height(fit, longest, radius_m):
-    """A note if the given contact height makes the contacts far longer than the ball can have (a log of
-    the ball's bottom taken for its centre, a floor set too low), else None.
+def contact_time_se(fit, held_drag, **uncertainty):
+    """Standard errors (s) of the contact times of ``fit``: its covariance with the held drag's
+    uncertainty (``held_drag``, as :func:`fit_with_drag_choice` gives it) and ``uncertainty`` (keyword
+    arguments of :func:`dropfit.analysis.uncertainty.quantity_covariance`)."""
+    quantities = fit.quantities
+    covariance = quantity_covariance(fit.model, fit.result, quantities, **held_drag, **uncertainty)["covariance"]
+    rows = quantity_index("t_contact_s", quantities.n_impacts)
+    return np.sqrt(np.clip(np.diag(covariance)[rows], 0.0, None))
+
+
+def implausible_contact_height(fit, longest, radius_m, contact_se_s=0.0):
+    """A note if the given contact height makes the contacts longer than the ball can have (a log of
+    the ball's bottom taken for its centre, a floor set too high, a floor edge seen behind the ball), else
+    None: by ``CONTACT_HEIGHT_REJECTION_FACTOR`` times, or by more than ``CONTACT_HEIGHT_REJECTION_SE`` of
+    their standard errors ``contact_se_s`` (s). The flights then contradict the floor: e measured at it
+    would be off (a phone clip's floor edge 3 px above the ball's contact gave e 3 standard errors low).
 
     ``longest``: the longest contact time at 1 m/s (s) and its exponent.
     """
@@ -410,11 +426,13 @@ def implausible_contact_height(fit, longest, radius_m):
         return None
     values = unpack_quantities(quantities(fit.result.x), quantities.n_impacts)
     limit = contact_time_at(longest[0], values["v_in_m_s"], longest[1])
-    excess = values["t_contact_s"] / limit
-    if not np.nanmax(excess) > CONTACT_HEIGHT_REJECTION_FACTOR:
+    contact = values["t_contact_s"]
+    too_long = (contact > CONTACT_HEIGHT_REJECTION_FACTOR * limit) | (
+        contact - CONTACT_HEIGHT_REJECTION_SE * np.asarray(contact_se_s) > limit)
+    if not too_long.any():
         return None
-    first = int(np.nanargmax(excess > CONTACT_HEIGHT_REJECTION_FACTOR))
-    return (f"the given floor makes impact {first + 1}'s contact last {1e3 * values['t_contact_s'][first]:.3g} ms, "
+    first = int(np.flatnonzero(too_long)[0])
+    return (f"the given floor makes impact {first + 1}'s contact last {1e3 * contact[first]:.3g} ms, "
             f"more than this kind of ball can (at most {1e3 * limit[first]:.2g} ms)"
             + reference_hint(quantities, fit.result.x, radius_m)
             + "; the floor is not used: the contact height is modelled from the flights")
@@ -432,7 +450,7 @@ def reference_hint(quantities, theta, radius_m):
             return (f": the flights meet {abs(offset) * 1e3:.0f} mm {'below' if sign > 0 else 'above'} the floor "
                     f"plus the radius, about one radius: the heights look like the ball's {point}, not its "
                     f"centre (set height_reference {point})")
-    return ": the floor may be set too low (check floor_m)"
+    return f": the floor may be set too {'high' if offset > 0 else 'low'} (check floor_m)"
 
 
 def release_extension(fit, problem):
@@ -530,7 +548,8 @@ def refine(problem, bounds, with_drag, theta0, fixed_k=0.0):
             break
         fitted, bounds = refitted, new_bounds
     model, result, counts = fitted
-    misfit = first_misfit_flight(model, result, problem.noise)
+    misfit = first_misfit_flight(model, result, problem.noise, RESIDUAL_OUTLIER_SIGMAS,
+                                 int(MAX_RESIDUAL_OUTLIER_FRACTION * problem.t.size))
     if misfit is not None and misfit >= 2:
         theta = np.concatenate([result.x[: 2 * misfit], result.x[2 * model.n_flights:]])
         shorter = refine(problem, bounds[:misfit], with_drag, theta, fixed_k)

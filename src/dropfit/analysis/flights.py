@@ -8,6 +8,7 @@ criterion that decides whether drag is fitted.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -194,7 +195,7 @@ def first_spurious_impact(model, result):
     return int(spurious[0]) if spurious.size else None
 
 
-def first_misfit_flight(model, result, noise):
+def first_misfit_flight(model, result, noise, outlier_sigmas=math.inf, max_outliers=0):
     """Index of the first flight whose residuals are too large for the noise (χ² test, p < 1e-4).
 
     The noise is the larger of ``noise`` and the robust spread of all the residuals: noise that is
@@ -204,16 +205,21 @@ def first_misfit_flight(model, result, noise):
     residuals, a flight's χ² and its degrees of freedom are both scaled by (1 − ρ²)/(1 + ρ²), which
     keeps the χ² distribution's mean and variance for AR(1) residuals. A video's tracked centre drifts
     by ~0.1 px over a flight with the ball's turning seam (ρ ≈ 0.8 on the default phone clip); white
-    noise (ρ ≈ 0) leaves the test as it was.
+    noise (ρ ≈ 0) leaves the test as it was. Residuals beyond ``outlier_sigmas`` times that noise, when
+    there are at most ``max_outliers`` of them, are outliers the caller leaves out, not a misfit: they are not
+    counted (one sample of a phone clip 5.8 noise standard deviations off had ended the sequence).
     """
     residuals = result.fun
     scale = max(noise, robust_sigma(residuals))
-    same_flight = model.flight[1:] == model.flight[:-1]
+    counted = np.abs(residuals) <= outlier_sigmas * scale
+    if np.count_nonzero(~counted) > max_outliers:
+        counted[:] = True
+    same_flight = (model.flight[1:] == model.flight[:-1]) & counted[1:] & counted[:-1]
     lagged = float(residuals[1:][same_flight] @ residuals[:-1][same_flight])
-    rho = lagged / float(residuals @ residuals) if lagged > 0 else 0.0
+    rho = lagged / float(residuals[counted] @ residuals[counted]) if lagged > 0 else 0.0
     independent = (1.0 - rho**2) / (1.0 + rho**2)
     for i in range(model.n_flights):
-        residual = residuals[model.flight == i]
+        residual = residuals[(model.flight == i) & counted]
         chi2 = independent * float(residual @ residual) / scale**2
         if chi2_tail(chi2, max(independent * residual.size - 2, 1)) < MISFIT_P_VALUE:
             return i
