@@ -5,7 +5,7 @@ through PyAV, byte for byte the same file for a seed) and analysed as a user wou
 radius, mass and kind and the preset's scale option. Each analysed impact is matched to the generator's
 impact with the nearest touchdown time; z = (e − e_true) / se with se from the 95 % interval.
 
-    PYTHONPATH=$PWD/src:$PWD python benchmarks/phone_coverage.py [--seeds 0-5] [--workers 2]
+    PYTHONPATH=$PWD/src:$PWD python benchmarks/phone_coverage.py [--seeds 0-11] [--workers 2]
 
 Writes ``benchmarks/phone_coverage.csv`` (one row per impact, or per refused clip with its message),
 ``benchmarks/phone_coverage_summary.csv`` (per preset: clips, refusals, impacts, coverage, mean z,
@@ -109,7 +109,7 @@ def draw(table, path):
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--seeds", default="0-5", help="seeds, as first-last (inclusive)")
+    parser.add_argument("--seeds", default="0-11", help="seeds, as first-last (inclusive)")
     parser.add_argument("--workers", type=int, default=2)
     args = parser.parse_args(argv)
     first, last = (int(part) for part in args.seeds.split("-"))

@@ -12,6 +12,7 @@ from refsim.record import Jumps, record
 
 from dropfit.analysis import analyse_bounces
 from dropfit.balls import ball_kind
+from dropfit.errors import InputError
 from dropfit.heightlog import scale_from_gravity
 from dropfit.physics import UNKNOWN_SITE_GRAVITY_SE_M_S2, drag_parameter
 
@@ -271,3 +272,21 @@ def test_one_sample_far_off_does_not_end_the_bounce_sequence():
     assert len(stray.impacts) == len(clean.impacts) >= 10
     assert stray.summary["residual_outlier_samples"] == 1
     assert not any("residuals are far larger" in note for note in stray.summary["notes"])
+
+
+def test_a_floor_found_in_the_image_below_where_the_ball_touches_is_set_aside_not_refused():
+    """A video's floor edge found 8 mm below where the ball touches (phonesim's yellow_green_tape, seed 7: the
+    recording was refused with "the flights meet above the given contact height … check floor_m", a floor the
+    user never gave). A found floor that the flights meet above is set aside with a note, and e is right; a
+    floor the user gave is still refused, naming floor_m."""
+    truth = refsim.simulate("tennis", drop_height_m=1.2, g_m_s2=G, t_end_s=2.0)
+    log = record(truth, 120.0, unit="m", noise_sd=0.0005, rng=4)
+    low = {"contact_height_m": truth.radius_m - 0.008, "contact_height_se_m": 0.0002, **kind_options("tennis", truth)}
+    found = analyse_bounces(log["time_s"], log["y_m"], G, contact_height_found=True, **low)
+    note = " ".join(found.summary["notes"])
+    assert "meet above the floor found in the image" in note and "floor is not used" in note, note
+    true = matched_truth(found.impacts, truth.impacts)
+    assert len(found.impacts) == 3
+    assert np.all(np.abs((found.impacts["e"] - true["e"]) / found.impacts["e_se"]) < Z_LIMIT)
+    with pytest.raises(InputError, match="floor_m"):
+        analyse_bounces(log["time_s"], log["y_m"], G, **low)

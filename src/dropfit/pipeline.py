@@ -178,7 +178,8 @@ def analysis_options(attrs, settings=None, sample_interval_s=0.0):
     dict
         ``gravity_m_s2`` and ``gravity_se_m_s2`` (the site's g, m/s²), ``gravity_scaled`` (a px scale
         from gravity), ``drag``, ``contact_height_m`` (floor + radius, m, when both are known; else
-        None: modelled from the flights), ``contact_height_se_m`` (a floor found in a video, m),
+        None: modelled from the flights), ``contact_height_se_m`` (a floor found in a video, m) and
+        ``contact_height_found`` (whether it was found, not given),
         ``source``, ``scale_rel_se`` (1), ``contact_guard_s`` (half a frame interval for a video, whose
         frames are exposed around their time; else 0), ``nominal_drag_k_per_m`` and
         ``nominal_drag_relative_se`` (a smooth ball of the kind's C_d, size and mass, 1/m; 0 when the
@@ -202,6 +203,8 @@ def analysis_options(attrs, settings=None, sample_interval_s=0.0):
         # with the floor and the radius known, the ball touches down where its centre is one radius up
         "contact_height_m": floor + radius if floor is not None and radius is not None else None,
         "contact_height_se_m": float(attrs.get("floor_se_m", 0.0)),
+        # only a floor found in a video's image has an se (a given one replaces it)
+        "contact_height_found": "floor_se_m" in attrs,
         "source": str(attrs.get("source", "trajectory")),
         "scale_rel_se": float(attrs.get("scale_rel_se", 0.0)),
         # a video frame is exposed for up to one frame interval around its time: keep the flights half an

@@ -74,7 +74,8 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
                     source="trajectory", scale_rel_se=0.0, contact_height_se_m=0.0, contact_guard_s=0.0,
                     nominal_drag_k_per_m=0.0, noise_correlation=0.0, gravity_se_m_s2=0.0, gravity_scaled=False,
                     contact_time_prior_s=None, contact_time_exponent=None,
-                    nominal_drag_relative_se=NOMINAL_DRAG_RELATIVE_SE, max_contact_time_s=None, ball_radius_m=None):
+                    nominal_drag_relative_se=NOMINAL_DRAG_RELATIVE_SE, max_contact_time_s=None, ball_radius_m=None,
+                    contact_height_found=False):
     """Segment a drop-test trajectory into flights, fit them and measure every impact.
 
     Parameters
@@ -108,6 +109,10 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
     contact_height_se_m : float
         Standard error in m of a given ``contact_height_m`` (e.g. of a floor found in a video); it
         enters the standard errors of the touchdown, lift-off and contact times, speeds and e.
+    contact_height_found : bool
+        The contact height was found (a floor's edge in a video's image), not given by the user: flights
+        that meet above it set it aside (the contact height is then modelled) instead of refusing the
+        recording, and the notes name it as found.
     contact_guard_s : float
         Samples closer than this (s) to a fitted touchdown or lift-off are left out of the flights.
         0 for instantaneous samples; half the frame interval for video frames, which are exposed for
@@ -186,7 +191,8 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
         if unresolved is None:
             floor_note = None if problem.contact_height is None else implausible_contact_height(
                 fit, longest, ball_radius_m, contact_time_se(fit, held_drag, contact_height_se_m=contact_height_se_m,
-                                                             noise_correlation=noise_correlation))
+                                                             noise_correlation=noise_correlation),
+                contact_height_found)
             if floor_note is None:
                 break
             # a contact height the flights contradict is not a measurement: model it from the flights
@@ -400,6 +406,9 @@ def implausible_drag(fit, problem, nominal_k):
 #: the ball can have, or longer by more than CONTACT_HEIGHT_REJECTION_SE of their standard errors.
 CONTACT_HEIGHT_REJECTION_FACTOR = 1.5
 CONTACT_HEIGHT_REJECTION_SE = 2.0
+#: Flights that meet above a given contact height by more than this many standard errors of the contact times
+#: refuse it (a found one is set aside).
+NEGATIVE_CONTACT_SE = 3.0
 
 
 def contact_time_se(fit, held_drag, **uncertainty):
@@ -412,12 +421,15 @@ def contact_time_se(fit, held_drag, **uncertainty):
     return np.sqrt(np.clip(np.diag(covariance)[rows], 0.0, None))
 
 
-def implausible_contact_height(fit, longest, radius_m, contact_se_s=0.0):
+def implausible_contact_height(fit, longest, radius_m, contact_se_s=0.0, found=False):
     """A note if the given contact height makes the contacts longer than the ball can have (a log of
     the ball's bottom taken for its centre, a floor set too high, a floor edge seen behind the ball), else
     None: by ``CONTACT_HEIGHT_REJECTION_FACTOR`` times, or by more than ``CONTACT_HEIGHT_REJECTION_SE`` of
     their standard errors ``contact_se_s`` (s). The flights then contradict the floor: e measured at it
-    would be off (a phone clip's floor edge 3 px above the ball's contact gave e 3 standard errors low).
+    would be off (a phone clip's floor edge 3 px above the ball's contact gave e 3 standard errors low). A
+    contact height that was ``found`` (a video's floor edge), not given, is also set aside when the flights
+    meet above it (a contact shorter than zero by ``NEGATIVE_CONTACT_SE`` standard errors), where a given
+    one is refused (:func:`_assemble`).
 
     ``longest``: the longest contact time at 1 m/s (s) and its exponent.
     """
@@ -426,16 +438,21 @@ def implausible_contact_height(fit, longest, radius_m, contact_se_s=0.0):
         return None
     values = unpack_quantities(quantities(fit.result.x), quantities.n_impacts)
     limit = contact_time_at(longest[0], values["v_in_m_s"], longest[1])
-    contact = values["t_contact_s"]
+    contact, contact_se = values["t_contact_s"], np.asarray(contact_se_s)
     too_long = (contact > CONTACT_HEIGHT_REJECTION_FACTOR * limit) | (
-        contact - CONTACT_HEIGHT_REJECTION_SE * np.asarray(contact_se_s) > limit)
+        contact - CONTACT_HEIGHT_REJECTION_SE * contact_se > limit)
+    floor = "the floor found in the image" if found else "the given floor"
+    ending = "; the floor is not used: the contact height is modelled from the flights"
+    if found and np.any(contact < -NEGATIVE_CONTACT_SE * contact_se):
+        first = int(np.flatnonzero(contact < -NEGATIVE_CONTACT_SE * contact_se)[0])
+        return (f"the flights meet above {floor}: impact {first + 1}'s contact would last "
+                f"{1e3 * contact[first]:.3g} ms (the floor seen lower than where the ball touches){ending}")
     if not too_long.any():
         return None
     first = int(np.flatnonzero(too_long)[0])
-    return (f"the given floor makes impact {first + 1}'s contact last {1e3 * contact[first]:.3g} ms, "
+    return (f"{floor} makes impact {first + 1}'s contact last {1e3 * contact[first]:.3g} ms, "
             f"more than this kind of ball can (at most {1e3 * limit[first]:.2g} ms)"
-            + reference_hint(quantities, fit.result.x, radius_m)
-            + "; the floor is not used: the contact height is modelled from the flights")
+            + ("" if found else reference_hint(quantities, fit.result.x, radius_m)) + ending)
 
 
 def reference_hint(quantities, theta, radius_m):
@@ -612,7 +629,7 @@ def _assemble(fit, bics, problem, origin, source, uncertainty, data, notes, ball
     impacts["h_before_scale_se_m"] = scale_errors["apex_height_m"][:-1]
     impacts["h_after_scale_se_m"] = scale_errors["apex_height_m"][1:]
     contact_ms, contact_se_ms = 1e3 * values["t_contact_s"], 1e3 * errors["t_contact_s"]
-    if quantities.given_contact_height is not None and np.any(contact_ms < -3 * contact_se_ms - 1e-6):
+    if quantities.given_contact_height is not None and np.any(contact_ms < -NEGATIVE_CONTACT_SE * contact_se_ms - 1e-6):
         raise InputError(f"{source}: the flights meet above the given contact height (floor + radius): "
                          f"the floor is lower than that; check floor_m and the ball radius")
     add_with_interval(impacts, "t_contact_ms", contact_ms, contact_se_ms)

@@ -729,7 +729,8 @@ def track_frames(frames, times_s, expected_radius_px=None, *, background=None, s
     pandas.DataFrame
         One row per frame: ``frame``, ``time_s`` (s), ``x_px``, ``y_px``, ``radius_px`` (px),
         ``quality``, ``centre_se_px`` and ``fit_rms_px`` (px; see the module documentation);
-        ``attrs`` holds ``source``, ``noise_grey`` and ``contrast`` (the channel tracked in).
+        ``attrs`` holds ``source``, ``noise_grey``, ``contrast`` (the channel tracked in) and ``in_colour``
+        (whether that channel is a colour one).
 
     Raises
     ------
@@ -756,7 +757,8 @@ def track_frames(frames, times_s, expected_radius_px=None, *, background=None, s
         contrast = contrast_of(GREY, (), background)
         rows = _run(frames, background, expected_radius_px, contrast, hints)
     table = _table(rows, times_s)
-    table.attrs.update(source=str(source), noise_grey=background.noise_grey, contrast=contrast.name)
+    table.attrs.update(source=str(source), noise_grey=background.noise_grey, contrast=contrast.name,
+                       in_colour=contrast.in_colour)
     return _found_or_raise(table, source)
 
 
@@ -877,7 +879,7 @@ def track_video(path, capture_fps=None, expected_radius_px=None, *, background_s
     pandas.DataFrame
         As :func:`track_frames`; ``attrs`` holds ``source``, ``container_fps`` (frames/s),
         ``capture_fps``, ``time_source``, ``frame_count_header``, ``rotation_deg`` (counter-clockwise,
-        applied), ``codec``, ``noise_grey`` and ``contrast``.
+        applied), ``codec``, ``noise_grey``, ``contrast`` and ``in_colour``.
 
     Raises
     ------
@@ -950,5 +952,6 @@ def track_video_and_background(path, capture_fps=None, expected_radius_px=None, 
     table = _table(rows, times)
     table.attrs.update(source=str(path), container_fps=container_fps, capture_fps=capture_fps,
                        time_source=how, frame_count_header=info.frame_count, rotation_deg=info.rotation_deg,
-                       codec=info.codec, noise_grey=background.noise_grey, contrast=contrast.name)
+                       codec=info.codec, noise_grey=background.noise_grey, contrast=contrast.name,
+                       in_colour=contrast.in_colour)
     return TrackedVideo(_found_or_raise(table, path), background)
