@@ -290,3 +290,19 @@ def test_a_floor_found_in_the_image_below_where_the_ball_touches_is_set_aside_no
     assert np.all(np.abs((found.impacts["e"] - true["e"]) / found.impacts["e_se"]) < Z_LIMIT)
     with pytest.raises(InputError, match="floor_m"):
         analyse_bounces(log["time_s"], log["y_m"], G, **low)
+
+
+def test_the_misfit_test_ignores_no_more_stray_samples_than_the_outlier_rule_may_still_leave_out():
+    """The outlier rule leaves out at most 2 % of a recording's samples in all; the misfit test, which does not
+    count samples the rule will leave out, is given what is left of that allowance after the samples already
+    out (it had counted 2 % of the samples still in, anew on each pass)."""
+    from dropfit.analysis.bounces import MAX_RESIDUAL_OUTLIER_FRACTION, FitProblem
+
+    n = 500
+    problem = FitProblem(np.arange(n) / 100.0, np.zeros(n), G, None, 0.001, 0.0, 0.0)
+    assert problem.outliers_allowed == int(MAX_RESIDUAL_OUTLIER_FRACTION * n) == 10
+    keep = np.ones(n, dtype=bool)
+    keep[:7] = False
+    assert problem.subset(keep).outliers_allowed == 3
+    keep[:12] = False
+    assert problem.subset(keep).outliers_allowed == 0

@@ -244,15 +244,16 @@ def trajectory_from_video(path, ball_radius_m=None, scale_m_per_px=None, capture
             else:
                 floor_row = float(_rectified(floor_row, extra))
             if table.attrs.get("in_colour"):
-                # lit from above, a ball's shaded lower half has less colour: its colour centre reads up to a tenth
+                # lit from above, a ball's shaded lower half has less colour (and brightness): its colour centre reads up to a tenth
                 # of its radius high (phonesim's green and yellow balls: 1.4 and 0.85 px, radii near 12 px), which
                 # against the floor's edge is a floor as much too low (with the true floor given, e came out 5-8
                 # standard errors high at 30 frames/s); with that in its se the floor gives e no better than the
                 # contact height modelled from the flights does
                 extra["floor_note"] = (f"the floor's edge is seen at image row {extra['floor_row_px']:.1f} but not "
-                                       f"used: the ball is measured by its colour, whose centre lies up to a tenth "
-                                       f"of its radius off (shading); the contact height is modelled from the "
-                                       f"flights (give floor_m for contact times)")
+                                       f"used: the ball is measured in the {table.attrs.get('contrast')} channel, "
+                                       f"where shading moves its centre up to a tenth of its radius (a floor "
+                                       f"given as floor_m meets the same shift); the contact height is modelled "
+                                       f"from the flights")
             else:
                 extra["floor_m"] = -floor_row * scale  # heights are −row × scale
                 extra["floor_se_m"] = FLOOR_ROW_SE_PX * scale

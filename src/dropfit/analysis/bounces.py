@@ -244,7 +244,9 @@ class FitProblem:
     """What every fit of one recording shares: its samples (s, m; the hand's and the tracking jumps'
     left out), g (m/s²), a given contact height (m, or None), the noise (m), the guard around the
     contacts (s), the release time (s), before which flight 0 never starts, and the priors of a
-    modelled contact height: the contact time at 1 m/s (s) and its exponent, each with its se."""
+    modelled contact height: the contact time at 1 m/s (s) and its exponent, each with its se; and how many
+    more samples may be left out as residual outliers (``MAX_RESIDUAL_OUTLIER_FRACTION`` of the recording's,
+    less those left out already)."""
 
     t: np.ndarray
     y: np.ndarray
@@ -254,11 +256,18 @@ class FitProblem:
     guard_s: float
     release_time: float
     contact_prior: tuple = ((0.0, 0.0), (0.0, 0.0))
+    outliers_allowed: int | None = None  # None: the fraction of these samples
+
+    def __post_init__(self):
+        if self.outliers_allowed is None:
+            self.outliers_allowed = int(MAX_RESIDUAL_OUTLIER_FRACTION * self.t.size)
 
     def subset(self, keep):
-        """The same problem on the samples ``keep`` (boolean mask)."""
+        """The same problem on the samples ``keep`` (boolean mask over these samples), the outliers allowed less
+        the samples it leaves out."""
+        left_out = int(np.count_nonzero(~np.asarray(keep)))
         return FitProblem(self.t[keep], self.y[keep], self.g, self.contact_height, self.noise, self.guard_s,
-                          self.release_time, self.contact_prior)
+                          self.release_time, self.contact_prior, max(self.outliers_allowed - left_out, 0))
 
     def impact_quantities(self, model):
         """The impact quantities of a flight model fitted to this problem."""
@@ -565,8 +574,7 @@ def refine(problem, bounds, with_drag, theta0, fixed_k=0.0):
             break
         fitted, bounds = refitted, new_bounds
     model, result, counts = fitted
-    misfit = first_misfit_flight(model, result, problem.noise, RESIDUAL_OUTLIER_SIGMAS,
-                                 int(MAX_RESIDUAL_OUTLIER_FRACTION * problem.t.size))
+    misfit = first_misfit_flight(model, result, problem.noise, RESIDUAL_OUTLIER_SIGMAS, problem.outliers_allowed)
     if misfit is not None and misfit >= 2:
         theta = np.concatenate([result.x[: 2 * misfit], result.x[2 * model.n_flights:]])
         shorter = refine(problem, bounds[:misfit], with_drag, theta, fixed_k)
