@@ -239,22 +239,22 @@ def trajectory_from_video(path, ball_radius_m=None, scale_m_per_px=None, capture
         floor_row = find_floor_row(background, float(np.nanmax(image_rows)) + median_radius_px, median_radius_px)
         if floor_row is not None:
             extra["floor_row_px"] = floor_row
-            if plane is not None:  # the floor's edge below the drop, in the plane's rows
-                floor_row = float(_plane_rows(plane, extra, [np.nanmedian(table["x_px"])], [floor_row])[0])
-            else:
-                floor_row = float(_rectified(floor_row, extra))
             if table.attrs.get("in_colour"):
-                # lit from above, a ball's shaded lower half has less colour (and brightness): its colour centre reads up to a tenth
-                # of its radius high (phonesim's green and yellow balls: 1.4 and 0.85 px, radii near 12 px), which
-                # against the floor's edge is a floor as much too low (with the true floor given, e came out 5-8
-                # standard errors high at 30 frames/s); with that in its se the floor gives e no better than the
-                # contact height modelled from the flights does
-                extra["floor_note"] = (f"the floor's edge is seen at image row {extra['floor_row_px']:.1f} but not "
-                                       f"used: the ball is measured in the {table.attrs.get('contrast')} channel, "
-                                       f"where shading moves its centre up to a tenth of its radius (a floor "
-                                       f"given as floor_m meets the same shift); the contact height is modelled "
-                                       f"from the flights")
+                # lit from above, a ball's shaded lower half has less colour (and brightness): its centre reads up
+                # to a tenth of its radius high (phonesim's green and yellow balls: 1.4 and 0.85 px, radii near
+                # 12 px), which against the floor's edge is a floor as much too low (with the true floor given, e
+                # came out 5-8 standard errors high at 30 frames/s); with that in its se the floor gives e no
+                # better than the contact height modelled from the flights does
+                extra["floor_note"] = (f"the floor's edge is seen at image row {floor_row:.1f} but not used: the "
+                                       f"ball is measured in the {table.attrs.get('contrast')} channel, where "
+                                       f"shading moves its centre up to a tenth of its radius (a floor given as "
+                                       f"floor_m meets the same shift); the contact height is modelled from the "
+                                       f"flights")
             else:
+                if plane is not None:  # the floor's edge below the drop, in the plane's rows
+                    floor_row = float(_plane_rows(plane, extra, [np.nanmedian(table["x_px"])], [floor_row])[0])
+                else:
+                    floor_row = float(_rectified(floor_row, extra))
                 extra["floor_m"] = -floor_row * scale  # heights are −row × scale
                 extra["floor_se_m"] = FLOOR_ROW_SE_PX * scale
     trajectory = make_trajectory(time, -rows * scale, path, _CALIBRATION_TEXT[chosen], extra)

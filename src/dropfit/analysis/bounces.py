@@ -177,14 +177,15 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
                contact_prior[1][0])
     keep = np.ones(problem.t.size, dtype=bool)
     while True:
-        fit, bics, held_drag = fit_with_drag_choice(problem.subset(keep), bounds, drag, held_k,
-                                                    float(nominal_drag_relative_se), source)
+        kept = problem.subset(keep)
+        fit, bics, held_drag = fit_with_drag_choice(kept, bounds, drag, held_k, float(nominal_drag_relative_se),
+                                                    source)
         earlier_release = release_extension(fit, problem)
         if earlier_release is not None and earlier_release < problem.release_time:
             problem.release_time = earlier_release
             continue
         outliers = residual_outliers(fit, problem.noise)
-        if outliers.size and np.count_nonzero(~keep) + outliers.size <= MAX_RESIDUAL_OUTLIER_FRACTION * keep.size:
+        if outliers.size and outliers.size <= kept.outliers_allowed:
             keep[np.flatnonzero(keep)[np.isin(problem.t[keep], fit.model.t[outliers])]] = False
             continue
         unresolved = first_unresolved_impact(fit, problem.noise)
@@ -452,8 +453,9 @@ def implausible_contact_height(fit, longest, radius_m, contact_se_s=0.0, found=F
         contact - CONTACT_HEIGHT_REJECTION_SE * contact_se > limit)
     floor = "the floor found in the image" if found else "the given floor"
     ending = "; the floor is not used: the contact height is modelled from the flights"
-    if found and np.any(contact < -NEGATIVE_CONTACT_SE * contact_se):
-        first = int(np.flatnonzero(contact < -NEGATIVE_CONTACT_SE * contact_se)[0])
+    flights_meet_above = contact < -NEGATIVE_CONTACT_SE * contact_se
+    if found and flights_meet_above.any():
+        first = int(np.flatnonzero(flights_meet_above)[0])
         return (f"the flights meet above {floor}: impact {first + 1}'s contact would last "
                 f"{1e3 * contact[first]:.3g} ms (the floor seen lower than where the ball touches){ending}")
     if not too_long.any():
