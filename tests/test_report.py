@@ -10,6 +10,7 @@ from html.parser import HTMLParser
 import numpy as np
 import pandas as pd
 import pytest
+import xarray as xr
 
 from dropfit import __version__, stages
 from dropfit.cli import main
@@ -17,8 +18,8 @@ from dropfit.fitrecord import fit_summary
 from dropfit.settings import Ball, Settings
 from dropfit.errors import InputError
 from dropfit.files import write_failure
-from dropfit.report import (agreement_words, batch_report_html, batch_rows, bic_words, format_pm, run_html,
-                            scatter_words)
+from dropfit.report import (agreement_words, batch_report_html, batch_rows, bic_words, format_pm, model_bic_words,
+                            recording_name, run_html, scatter_words)
 
 from helpers import TENNIS_SHORT_SCENARIOS
 
@@ -351,6 +352,19 @@ def test_bic_in_words_follows_kass_and_raftery(delta_bic, strength):
     """2 ln B (≈ ΔBIC) 0–2 weak, 2–6 positive, 6–10 strong, > 10 very strong (Kass & Raftery 1995, table)."""
     assert bic_words(delta_bic, "the linear law", "the constant one") == \
         f"ΔBIC {delta_bic:.1f}: {strength} evidence for the linear law over the constant one"
+
+
+def test_a_report_without_a_sample_id_is_titled_by_its_file():
+    trajectory = xr.Dataset(attrs={"source": "/data/drops/pingpong.wav"})
+    assert recording_name({}, trajectory) == "pingpong.wav"
+    assert recording_name({"sample_id": "lot_A"}, trajectory) == "lot_A"
+
+
+def test_a_model_with_a_lower_bic_than_the_chosen_one_is_said_to_be_passed_over_for_its_misfit():
+    """The chosen model is the lowest BIC among those whose χ² test accepts them: one with a lower BIC (the
+    real ping-pong table, constant e ΔBIC −11.4 against per impact) was rejected, and the words say so."""
+    assert model_bic_words(-11.4) == "very strong evidence for it by its BIC, but its χ² test does not accept it"
+    assert model_bic_words(7.0) == "strong evidence against it"
 
 
 @pytest.mark.parametrize("p_value, words", [(0.4, "the scatter is what the errors predict"),

@@ -100,7 +100,7 @@ def fit_summary(summary, impacts, settings=None, ball_type=None):
     fall_time = impacts["t_touchdown_s"].iloc[0] - summary["drop_apex_time_s"]
     theory = theory_checks(constant["value"], constant["se"], summary["drop_height_m"], fall_time,
                            impacts["h_after_m"].to_numpy(), impacts["h_after_se_m"].to_numpy(),
-                           summary["rest_time_s"] - summary["drop_apex_time_s"])
+                           summary["rest_time_s"] - summary["drop_apex_time_s"], summary.get("impacts_heard"))
     if summary.get("horizontal"):  # a 2-D recording: the distance travelled while bouncing, u t∞
         theory["horizontal_distance"] = distance_check(summary["horizontal"], theory["total_bouncing_time"])
     if summary.get("bouncing_time_note"):  # a sound recording's bouncing time ends otherwise

@@ -224,3 +224,10 @@ def bounce_heights(e, first_height_m, n_bounces):
 def total_bouncing_time(e, fall_time_s):
     """Time in s from release until the bouncing stops: t∞ = t₀ (1 + e)/(1 − e), constant e, no drag."""
     return fall_time_s * (1.0 + e) / (1.0 - e)
+
+
+def touchdown_time(e, fall_time_s, impact):
+    """Time in s from release to touchdown ``impact`` (1, 2, …) and its derivative with respect to e (s):
+    t₀ (1 + 2 Σ_{k=1}^{n−1} eᵏ), the partial sum of t∞'s series, constant e, no drag."""
+    k = np.arange(1, int(impact))
+    return fall_time_s * (1.0 + 2.0 * np.sum(e ** k)), fall_time_s * 2.0 * np.sum(k * e ** (k - 1))

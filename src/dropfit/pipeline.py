@@ -26,6 +26,7 @@ from .video import limits as video_limits
 from .analysis import analyse_bounces
 from .analysis.horizontal import add_horizontal
 from .audio.recording import analyse_sound, is_sound_dataset, is_sound_recording, sound_trajectory
+from .audio.tables import is_table_file
 from .balls import ball_kind
 from .errors import InputError, NotFreeFallError, shown_path
 from .files import sha256_of
@@ -89,7 +90,8 @@ def recording_kind(path, settings=None):
     """
     told = "video" if is_video(path) else "audio" if is_sound_recording(path) else "height_log"
     kind = (settings or Settings()).kind or told
-    if kind != told and not (kind == "audio" and told == "video"):
+    # a table given as sound holds impact times whose column's name need not say so
+    if kind != told and not (kind == "audio" and (told == "video" or is_table_file(path))):
         raise InputError(f"{shown_path(path)}: is given as kind {kind} but reads as {told.replace('_', ' ')} (by its "
                          f"suffix and header); give the kind of the file, or the file of that kind")
     return kind
@@ -144,7 +146,7 @@ def measure_recording(path, ball=None, settings=None, *, sample_id=None, tracked
                                            gravity.value_m_s2, attrs, settings.ruler_tick_m,
                                            scale_targets_of(settings), tracked)
     elif kind == "audio":
-        trajectory = sound_trajectory(path, attrs, settings.release_time_s)
+        trajectory = sound_trajectory(path, attrs, settings.release_time_s, columns=settings.columns)
     else:
         trajectory = trajectory_from_log(path, scale_m_per_px=scale, gravity_m_s2=gravity.value_m_s2, attrs=attrs,
                                          height_reference=settings.height_reference,

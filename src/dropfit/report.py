@@ -13,6 +13,7 @@ import os
 from collections import Counter
 from datetime import datetime, timezone
 from html import escape
+from pathlib import Path
 from urllib.parse import quote
 
 import matplotlib
@@ -285,6 +286,14 @@ def bic_strength(delta_bic):
     return next(words for bound, words in _BIC_EVIDENCE if delta_bic >= bound)
 
 
+def model_bic_words(delta_bic):
+    """What a model's ΔBIC to the chosen model says: evidence against it (> 0); below 0 (a lower BIC) it
+    was passed over because its χ² test rejects it or cannot judge it."""
+    if delta_bic < 0:
+        return f"{bic_strength(-delta_bic)} evidence for it by its BIC, but its χ² test does not accept it"
+    return f"{bic_strength(delta_bic)} evidence against it"
+
+
 def scatter_words(model):
     """What a model's χ² test says about the scatter of the data about it, in plain words.
 
@@ -337,6 +346,13 @@ def agreement_words(measured, measured_se, predicted, predicted_se):
     direction = "lower" if difference < 0 else "higher"
     beyond = f" ({abs(difference) / se:.0f} se)" if se > 0 else ""
     return f"{100 * abs(difference / predicted):.1f} % {direction} than predicted{beyond}"
+
+
+def recording_name(fit, trajectory):
+    """What a recording's report is titled by: its sample id, else its file's name (``dropfit run`` without
+    ``--sample-id``)."""
+    source = trajectory.attrs.get("source")
+    return fit.get("sample_id") or trajectory.attrs.get("sample_id") or (Path(source).name if source else "")
 
 
 # --- figure -------------------------------------------------------------------------------------
@@ -463,7 +479,7 @@ def _figure_png(trajectory, flights, impacts, analysis, fit):
     ax_e = fig.add_subplot(grid[2, 0])
     ax_h = fig.add_subplot(grid[2, 1])
     # the sample id is the user's text: drawn literally (a "$" must not start mathtext) and short
-    fig.suptitle(f"dropfit: {shown(fit.get('sample_id') or trajectory.attrs.get('sample_id', ''))}", fontsize=14,
+    fig.suptitle(f"dropfit: {shown(recording_name(fit, trajectory))}", fontsize=14,
                  parse_math=False)
 
     ax_traj.plot(t, height, ".", ms=2.5, color="0.35", label="measured")
@@ -517,7 +533,7 @@ def _sound_figure_png(trajectory, impacts, fit):
     grid = fig.add_gridspec(2, 3, height_ratios=[1, 1])
     ax_sound = fig.add_subplot(grid[0, :])
     ax_flight, ax_e, ax_h = (fig.add_subplot(grid[1, column]) for column in range(3))
-    fig.suptitle(f"dropfit: {shown(fit.get('sample_id') or trajectory.attrs.get('sample_id', ''))}", fontsize=14,
+    fig.suptitle(f"dropfit: {shown(recording_name(fit, trajectory))}", fontsize=14,
                  parse_math=False)
     times = trajectory["impact_time_s"].values
     if "envelope" in trajectory:
@@ -711,8 +727,7 @@ def _section_models(fit):
         reference = model["e_reference"]
         scatter = scatter_words(model)
         delta = model["delta_bic"]
-        evidence = ("" if _missing(delta) else "lowest BIC" if delta == 0
-                    else f"{bic_strength(delta)} evidence against it")
+        evidence = ("" if _missing(delta) else "lowest BIC" if delta == 0 else model_bic_words(delta))
         rows.append([(("▶ " if name == chosen else "") + escape(name), False), (escape(model["law"]), False),
                      (escape(parameters), False), (escape(format_pm(reference["value"], reference["se"])), True),
                      (_num(model.get("chi2_per_dof"), ".3g"), True), (escape(p_value_text(model["p_value"])), True),
@@ -756,7 +771,7 @@ def _drag_evidence(drag):
     """The BIC of the flights with and without drag in plain words."""
     without, with_drag = drag.get("bic_no_drag"), drag.get("bic_quadratic_drag")
     if _missing(without) or _missing(with_drag):
-        return "not compared: the drag was fixed by the --drag option"
+        return f"not compared: {drag.get('why') or 'the drag was fixed by the --drag option'}"
     if with_drag < without:
         return bic_words(without - with_drag, "quadratic drag", "none")
     return bic_words(with_drag - without, "no drag", "quadratic drag")
@@ -795,12 +810,18 @@ def _section_theory(fit):
                + _table(["bounce n", "measured hₙ (m)", "predicted e²ⁿh₀ (m)", "measured / predicted (1)",
                          "in words"], rows))
     total = theory["total_bouncing_time"]
-    times = _definitions([
-        ("Total bouncing time, measured", f"{_num(total.get('measured_s'), '.3f')} s"),
-        ("Total bouncing time t∞, predicted", escape(_estimate(total.get("predicted"), "s"))),
-        ("Measured against predicted", _against_prediction(total.get("measured_s"), total.get("predicted"))),
-        ("Note", _text(total.get("note"))),
-    ])
+    if total.get("predicted_to_last_impact"):  # the time ends at a counted impact (the last heard)
+        last = f"impact {total['impacts_counted']}"
+        rows = [(f"Time from release to {last} (the last heard), measured", f"{_num(total.get('measured_s'), '.3f')} s"),
+                (f"Time to {last}, predicted t₀(1 + 2Σeᵏ)", escape(_estimate(total["predicted_to_last_impact"], "s"))),
+                ("Measured against predicted", _against_prediction(total.get("measured_s"),
+                                                                   total["predicted_to_last_impact"])),
+                ("Total bouncing time t∞, predicted", escape(_estimate(total.get("predicted"), "s")))]
+    else:
+        rows = [("Total bouncing time, measured", f"{_num(total.get('measured_s'), '.3f')} s"),
+                ("Total bouncing time t∞, predicted", escape(_estimate(total.get("predicted"), "s"))),
+                ("Measured against predicted", _against_prediction(total.get("measured_s"), total.get("predicted")))]
+    times = _definitions(rows + [("Note", _text(total.get("note")))])
     return heights + "\n" + times
 
 
@@ -956,7 +977,7 @@ def recording_report_html(trajectory, flights, impacts, fit, png, contact_sheet_
     str
         The HTML page.
     """
-    sample_id = fit.get("sample_id") or trajectory.attrs.get("sample_id") or ""
+    sample_id = recording_name(fit, trajectory)
     sections = [
         ("Recording", _section_recording(fit) + _contact_sheet_html(contact_sheet_png)),
         ("Result", _section_result(fit)),

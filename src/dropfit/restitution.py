@@ -7,7 +7,7 @@ from __future__ import annotations
 import numpy as np
 
 from .numerics import chi2_tail, jacobian, normal_quantile, propagate
-from .physics import apex_rise, bounce_heights, speed_below_apex, total_bouncing_time
+from .physics import apex_rise, bounce_heights, speed_below_apex, total_bouncing_time, touchdown_time
 
 Z95 = float(normal_quantile(0.975))
 
@@ -111,7 +111,7 @@ def constant_restitution(e, covariance):
 
 
 def theory_checks(e, e_se, drop_height_m, fall_time_s, measured_heights_m, measured_heights_se_m,
-                  measured_bouncing_time_s):
+                  measured_bouncing_time_s, impacts_counted=None):
     """Compare the measured bounce sequence with the seed's constant-e, no-drag predictions.
 
     Parameters
@@ -125,13 +125,19 @@ def theory_checks(e, e_se, drop_height_m, fall_time_s, measured_heights_m, measu
     measured_heights_m, measured_heights_se_m : numpy.ndarray
         Apex heights h_n (m) after impacts 1, 2, … and their standard errors.
     measured_bouncing_time_s : float
-        Time from release until the ball rests, in s (NaN if the log ends first).
+        Time from release until the ball rests, in s (NaN if the log ends first); with
+        ``impacts_counted``, until the last of them.
+    impacts_counted : int, optional
+        The measured time ends at this touchdown (the last impact heard in a sound): it is checked
+        against the partial sum to that touchdown, not against t∞, which counts every later one.
 
     Returns
     -------
     dict
         ``heights`` (one entry per bounce: measured and predicted e^{2n}h₀ in m) and
-        ``total_bouncing_time`` (t∞ = t₀(1+e)/(1−e) in s against the measured time).
+        ``total_bouncing_time`` (t∞ = t₀(1+e)/(1−e) in s against the measured time; with
+        ``impacts_counted`` also ``predicted_to_last_impact``, t₀(1 + 2Σeᵏ) in s, which the measured time
+        is checked against, and ``impacts_counted``).
     """
     n = len(measured_heights_m)
     predicted = bounce_heights(e, drop_height_m, n)
@@ -139,19 +145,21 @@ def theory_checks(e, e_se, drop_height_m, fall_time_s, measured_heights_m, measu
     predicted_se = np.abs(exponent * predicted / e) * e_se
     t_inf = total_bouncing_time(e, fall_time_s)
     t_inf_se = fall_time_s * 2.0 / (1.0 - e) ** 2 * e_se
+    total = {"predicted": estimate(t_inf, t_inf_se, "s"), "measured_s": float(measured_bouncing_time_s),
+             "fall_time_s": float(fall_time_s),
+             "note": "the measured time ends when the ball stays within 5 noise standard deviations of the floor; "
+                     "bounces lower than that are not seen, and drag shortens every flight"}
+    if impacts_counted:
+        t_last, slope = touchdown_time(e, fall_time_s, impacts_counted)
+        total.update(predicted_to_last_impact=estimate(t_last, abs(slope) * e_se, "s"),
+                     impacts_counted=int(impacts_counted))
     return {
         "heights": [
             {"bounce": i + 1, "measured_m": float(h), "measured_se_m": float(s), "predicted_m": float(p),
              "predicted_se_m": float(ps)}
             for i, (h, s, p, ps) in enumerate(zip(measured_heights_m, measured_heights_se_m, predicted, predicted_se))
         ],
-        "total_bouncing_time": {
-            "predicted": estimate(t_inf, t_inf_se, "s"),
-            "measured_s": float(measured_bouncing_time_s),
-            "fall_time_s": float(fall_time_s),
-            "note": "the measured time ends when the ball stays within 5 noise standard deviations of the floor; "
-                    "bounces lower than that are not seen, and drag shortens every flight",
-        },
+        "total_bouncing_time": total,
     }
 
 

@@ -2,8 +2,10 @@
 
 WAV, FLAC and OGG are read with soundfile (libsndfile: exact samples, no resampling). M4A, AAC, MP3,
 Opus and the sound track of a video are decoded with PyAV (FFmpeg), already dropfit's video decoder:
-it decodes in-process and gives each decoded block's time stamp, so the samples are placed on the
-container's clock (the clock of the video's frames) rather than counted from zero.
+it decodes in-process and gives each decoded block's time stamp, so the samples of a video's sound track
+are placed on the container's clock (the clock of the video's frames). A sound file's samples are
+counted from its first, as a sound editor shows them: an MP3's demuxer stamps the first block with the
+encoder's delay (25 ms for LAME at 44.1 kHz) although that block is the recording's start.
 """
 
 from __future__ import annotations
@@ -35,8 +37,8 @@ class Sound:
     rate_hz : float
         Samples per second.
     start_s : float
-        Time of the first sample on the file's clock (s; 0 for WAV/FLAC/OGG, the stream's first time
-        stamp for a container).
+        Time of the first sample on the file's clock (s; 0 for a sound file, the stream's first time
+        stamp for a video's sound track).
     codec : str
         What was decoded (format and subtype, or the codec's name).
     """
@@ -81,7 +83,7 @@ def read_sound(path):
     if str(path).lower().endswith(SOUNDFILE_SUFFIXES):
         sound = _read_with_soundfile(path, name)
     else:
-        sound = _read_with_pyav(path, name)
+        sound = _read_with_pyav(path, name, container_clock=not str(path).lower().endswith(PYAV_SUFFIXES))
     if sound.samples.shape[0] < MIN_DURATION_S * sound.rate_hz:
         raise InputError(f"{name}: the recording lasts {sound.duration_s:.3g} s, too short to hold a bounce; "
                          f"record the whole drop")
@@ -103,7 +105,9 @@ def _read_with_soundfile(path, name):
     return Sound(samples=samples, rate_hz=float(rate), codec=f"{info.format} {info.subtype}")
 
 
-def _read_with_pyav(path, name):
+def _read_with_pyav(path, name, container_clock):
+    """Decode with PyAV; the first sample's time is the stream's first time stamp when ``container_clock``
+    (a video's sound track), else 0 (a sound file)."""
     import av
 
     try:
@@ -132,7 +136,8 @@ def _read_with_pyav(path, name):
         if not blocks:
             raise InputError(f"{name}: its sound track is empty; record with sound")
         codec = stream.codec_context.name
-    return Sound(samples=np.concatenate(blocks), rate_hz=float(rate), start_s=start or 0.0, codec=codec)
+    return Sound(samples=np.concatenate(blocks), rate_hz=float(rate), start_s=(start or 0.0) if container_clock else 0.0,
+                 codec=codec)
 
 
 def _full_scale(block):

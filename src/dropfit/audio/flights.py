@@ -192,8 +192,9 @@ def analyse_impact_times(times_s, times_se_s, gravity_m_s2, gravity_se_m_s2=0.0,
         "contact_time_why": f"the sound marks the touchdowns only: every flight time takes the ball kind's contact "
                             f"time ({1e3 * contact_time_prior_s[0]:.3g} ± {1e3 * contact_time_prior_s[1]:.2g} ms at "
                             f"1 m/s, a prior), never a measured one",
-        "bouncing_time_note": "the measured time ends at the last impact heard; fainter impacts are not heard, and "
-                              "drag shortens every flight",
+        "bouncing_time_note": "the measured time ends at the last impact heard (fainter ones are not heard), so it "
+                              "is checked against the time the series predicts for that impact; drag shortens "
+                              "every flight",
         "drag_model": "nominal" if drag_k_per_m > 0 else "none",
         "drag_k_per_m": float(drag_k_per_m),
         "drag_k_se_per_m": float(k_se),
@@ -210,6 +211,7 @@ def analyse_impact_times(times_s, times_se_s, gravity_m_s2, gravity_se_m_s2=0.0,
         "drop_height_scale_se_m": 0.0,
         # the last impact heard: later ones are too faint to hear, so this is when the bouncing ends as heard
         "rest_time_s": float(times[-1]),
+        "impacts_heard": int(times.size),
         "gravity_m_s2": float(gravity_m_s2),
         "gravity_se_m_s2": float(gravity_se_m_s2),
         "gravity_scaled": False,

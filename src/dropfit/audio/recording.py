@@ -13,7 +13,7 @@ from ..errors import InputError, shown_path
 from .decode import is_audio, read_sound
 from .flights import analyse_impact_times
 from .onsets import detect_impacts, timing_jitter
-from .tables import DEFAULT_TABLE_SE_S, is_impact_table, read_impact_table
+from .tables import DEFAULT_TABLE_SE_S, is_impact_table, is_table_file, read_impact_table
 
 
 def is_sound_recording(path):
@@ -26,7 +26,7 @@ def is_sound_dataset(trajectory):
     return "impact_time_s" in trajectory
 
 
-def sound_trajectory(path, attrs, release_time_s=None, sound=None):
+def sound_trajectory(path, attrs, release_time_s=None, sound=None, columns=None):
     """A sound file (or a video's sound track), or a table of impact times → the dataset of impact times.
 
     Parameters
@@ -39,6 +39,8 @@ def sound_trajectory(path, attrs, release_time_s=None, sound=None):
         When the ball was let go at rest, s on the recording's clock.
     sound : dropfit.audio.decode.Sound, optional
         The decoded sound, when decoded already (a video's track).
+    columns : str, optional
+        A table's column of impact times, ``"time=COL[ms]"`` (:func:`dropfit.audio.tables.read_impact_table`).
 
     Returns
     -------
@@ -53,8 +55,8 @@ def sound_trajectory(path, attrs, release_time_s=None, sound=None):
     attrs = {key: value for key, value in dict(attrs, source=str(path)).items() if value is not None}  # NetCDF has no None
     if release_time_s is not None:
         attrs["release_time_s"] = float(release_time_s)
-    if sound is None and is_impact_table(path):
-        times, se, kind = read_impact_table(path)
+    if sound is None and is_table_file(path):
+        times, se, kind = read_impact_table(path, columns)
         if times.size < 3:
             raise InputError(f"{name}: {times.size} impact time{'s' if times.size != 1 else ''}; at least three are "
                              f"needed for two flights")

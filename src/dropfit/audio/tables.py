@@ -2,7 +2,10 @@
 phyphox's "(In)elastic collision" experiment.
 
 A CSV of times names its unit in the column: ``impact_time_s`` or ``impact_time_ms``, optionally with
-``impact_time_se_s`` / ``impact_time_se_ms`` (standard errors); other columns are ignored.
+``impact_time_se_s`` / ``impact_time_se_ms`` (standard errors); other columns are ignored. Such a table is
+told from a height log by these names. A table the user gives as one of impact times (kind ``audio``) may
+name its time column otherwise, with its unit (``time (ms)``, ``t [s]``, ``impact time/s``), or have it
+mapped (``--columns time=COL[ms]``, as for logs).
 
 phyphox's "(In)elastic collision" experiment exports the set "Energy" with the columns
 ``Bounce 0 (s)`` … ``Bounce 5 (s)`` (each the time of the loudest sample of a sound above the
@@ -20,7 +23,9 @@ import numpy as np
 import pandas as pd
 
 from ..errors import InputError, shown, shown_path
+from ..importers.base import TIME_UNITS_S, quoted
 from ..importers.sensors import phyphox_sets
+from ..importers.table import parse_column, parse_mapping
 
 #: Suffixes a table of impact times may have.
 TABLE_SUFFIXES = (".csv", ".tsv", ".txt")
@@ -32,6 +37,9 @@ ZIP_SUFFIX = ".zip"
 DEFAULT_TABLE_SE_S = 1.0e-3
 _PHYPHOX = re.compile(r"^\s*bounce\s+(\d+)\s*\(s\)\s*$", re.IGNORECASE)
 _UNITS = {"impact_time_s": 1.0, "impact_time_ms": 1e-3}
+#: Names (without their unit) of a column of impact times in a table given as one.
+IMPACT_TIME_NAMES = {"impact time", "impact times", "impact", "time of impact", "touchdown", "touchdown time",
+                     "bounce time", "time", "t"}
 
 
 #: The most of a header line looked at to tell a table of impact times from a height log, characters.
@@ -65,6 +73,11 @@ def _phyphox_collision_set(path):
     return next((text for text in texts if _PHYPHOX_IN_HEADER.search(_first_line(text.splitlines()))), None)
 
 
+def is_table_file(path):
+    """True if ``path`` may be a table by its suffix (:data:`TABLE_SUFFIXES`, or a phyphox zip)."""
+    return str(path).lower().endswith(TABLE_SUFFIXES + (ZIP_SUFFIX,))
+
+
 def is_impact_table(path):
     """True if ``path`` is a table of impact times (a CSV naming ``impact_time_s``/``_ms``, or a phyphox
     "(In)elastic collision" export), judged by its suffix and the start of its header line (a height
@@ -77,8 +90,16 @@ def is_impact_table(path):
     return bool(_TIME_COLUMN.search(header) or _PHYPHOX_IN_HEADER.search(header))
 
 
-def read_impact_table(path):
+def read_impact_table(path, columns=None):
     """Impact times (s) and their standard errors (s; NaN where the table gives none) from a table.
+
+    Parameters
+    ----------
+    path : str or pathlib.Path
+        A CSV of impact times or a phyphox "(In)elastic collision" export.
+    columns : str, optional
+        The column of times where its name does not tell, ``"time=COL[ms]"`` (the unit in brackets,
+        or in the column's name).
 
     Returns
     -------
@@ -112,14 +133,12 @@ def read_impact_table(path):
         times = np.array([value for value in values if np.isfinite(value) and value > 0], dtype=float)
         kind, se = "phyphox", np.full(times.size, np.nan)
     else:
-        columns = {column.lower(): column for column in table.columns}
-        unit_column = next((column for column in _UNITS if column in columns), None)
-        if unit_column is None:
-            raise InputError(f"{name}: no column of impact times; name it impact_time_s or impact_time_ms")
-        times = _numbers(table[columns[unit_column]], name, columns[unit_column]) * _UNITS[unit_column]
-        se_column = unit_column.replace("_time_", "_time_se_")
-        se = (_numbers(table[columns[se_column]], name, columns[se_column]) * _UNITS[unit_column]
-              if se_column in columns else np.full(times.size, np.nan))
+        time_column, unit = _time_column(path, list(table.columns), columns)
+        times = _numbers(table[time_column], name, time_column) * TIME_UNITS_S[unit]
+        lowered = {column.lower(): column for column in table.columns}
+        se_column = time_column.lower().replace("_time_", "_time_se_")
+        se = (_numbers(table[lowered[se_column]], name, lowered[se_column]) * TIME_UNITS_S[unit]
+              if time_column.lower() in _UNITS and se_column in lowered else np.full(times.size, np.nan))
         kind = "csv"
     if np.any(np.diff(times) <= 0):
         bad = int(np.flatnonzero(np.diff(times) <= 0)[0])
@@ -128,6 +147,44 @@ def read_impact_table(path):
     if np.any(se[np.isfinite(se)] < 0):
         raise InputError(f"{name}: a standard error of an impact time is negative; give it as a positive number")
     return times, se, kind
+
+
+def _time_column(path, headers, columns=None):
+    """(header, unit) of the column of impact times among ``headers``: the one ``columns`` maps to time,
+    else ``impact_time_s``/``_ms``, else the one column named as a time (:data:`IMPACT_TIME_NAMES`) with its unit.
+
+    Raises InputError naming the columns and the mapping to give when no column, or several, could be it.
+    """
+    name = shown_path(path)
+    parsed = {header: parse_column(header) for header in headers}
+    if columns:
+        mapping = parse_mapping(path, columns)
+        if "time" not in mapping:
+            raise InputError(f"{name}: --columns '{shown(columns)}' names no time column; give the impact times' "
+                             f"column as time=COL[ms]")
+        wanted, unit = mapping["time"]
+        header = next((header for header, column in parsed.items()
+                       if wanted.lower() in (header.lower(), column.name)), None)
+        if header is None:
+            raise InputError(f"{name}: --columns names '{shown(wanted, 30)}' for the impact times, but the columns "
+                             f"are {quoted(headers)}")
+        unit = unit or parsed[header].unit
+        if unit not in TIME_UNITS_S:
+            raise InputError(f"{name}: the unit of the impact times in '{shown(header, 30)}' is not known; give it: "
+                             f"--columns time={shown(header, 30)}[ms] (or [s])")
+        return header, unit
+    lowered = {header.lower(): header for header in headers}
+    named = next((column for column in _UNITS if column in lowered), None)
+    if named:
+        return lowered[named], named.rsplit("_", 1)[1]
+    candidates = [header for header, column in parsed.items()
+                  if column.name in IMPACT_TIME_NAMES and column.unit in TIME_UNITS_S]
+    if len(candidates) == 1:
+        return candidates[0], parsed[candidates[0]].unit
+    unitless = next((header for header, column in parsed.items() if column.name in IMPACT_TIME_NAMES), None)
+    example = f"--columns time={shown(unitless or (headers[0] if headers else 'COL'), 30)}[ms]"
+    raise InputError(f"{name}: no single column of impact times with its unit among {quoted(headers)}; name it "
+                     f"impact_time_s or impact_time_ms, or map it: {example}")
 
 
 def _numbers(column, name, label):
