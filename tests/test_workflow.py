@@ -151,6 +151,18 @@ def test_sample_sheet_errors_are_one_line_each(tmp_path):
     assert "Job stats" not in result.stdout + result.stderr
 
 
+def test_config_values_on_the_command_line_are_read_as_in_a_config_file(tmp_path):
+    """``--config fail_on_failed_recordings=false`` is the boolean a config file's ``false`` is (it was refused
+    as "'false' is not of type 'boolean'"); a value of the wrong type is still one line."""
+    root = copy_workflow(tmp_path)
+    given = snakemake("-n", "--directory", ".test", "--config", "fail_on_failed_recordings=false", cwd=root)
+    assert given.returncode == 0, given.stderr
+    wrong = snakemake("-n", "--directory", ".test", "--config", "fail_on_failed_recordings=perhaps", cwd=root)
+    assert wrong.returncode == 1
+    assert "config, key fail_on_failed_recordings: 'perhaps' is not of type 'boolean'" in wrong.stderr
+    assert "Traceback" not in wrong.stderr
+
+
 def test_sample_sheet_import_columns_reach_measure(tmp_path):
     """A tracking table in the sample sheet with its format, fps and track_id columns: its job reads it with
     them (the trajectory says how) and the job's log holds the line saying what was read as what."""

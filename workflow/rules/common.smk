@@ -91,6 +91,19 @@ def stop_on_problems(problems):
         sys.exit(1)
 
 
+def typed_command_line_values(config, schema):
+    """``snakemake --config key=value`` passes ``false`` and ``1e-3`` as text where a config file gives YAML's
+    boolean and number: a value the schema does not allow as text is read as YAML reads it."""
+    for key, value in config.items():
+        kinds = schema["properties"].get(key, {}).get("type", [])
+        if isinstance(value, str) and "string" not in ([kinds] if isinstance(kinds, str) else kinds):
+            try:
+                config[key] = yaml.safe_load(value)
+            except yaml.YAMLError:  # left as text: the schema's check names it
+                pass
+
+
+typed_command_line_values(config, _schema("config"))
 stop_on_problems(_schema_problems(config, _schema("config"), "config", "key"))
 stop_on_problems(sample_sheet_problems(config["samples"], _schema("samples")))
 samples = read_sample_sheet(config["samples"])
