@@ -10,6 +10,10 @@ results. Timed is the whole command (Snakemake's start-up and planning included)
 of the 2000 fps close-up of the default synthetic clips (``contact_2000fps_closeup``, 60 frames of
 640 × 480), rendered once beforehand and not timed.
 
+Snakemake's start-up (``snakemake --version``, median of 3) is measured too: it is part of every batch, and
+on a machine where SLURM's client tools are installed but no controller answers, the SLURM executor
+plugin waits up to 10 s at each start for ``scontrol show config`` (the benchmark prints a warning then).
+
 For comparison, in the same run: one ``dropfit analyse`` call (a new process: start-up, imports, the
 analysis of that log's trajectory, made beforehand by ``dropfit measure``), called 16 times in a row;
 its median. The issue's targets: 64 logs cost no more than 16 single ``dropfit analyse`` calls, 1000
@@ -107,6 +111,14 @@ def main(argv=None):
                      "wall_per_recording_s": single})
         print(f"dropfit analyse, one call: {single:.2f} s (median of {SINGLE_CALLS}); "
               f"{SINGLE_CALLS} calls: {SINGLE_CALLS * single:.1f} s")
+
+        # Snakemake's own start-up, in every batch's wall time: on a machine with SLURM's client tools but no
+        # controller answering, the SLURM executor plugin waits up to 10 s for `scontrol show config` here
+        startup = statistics.median(timed(["snakemake", "--version"], work) for _ in range(3))
+        rows.append({"case": "snakemake --version", "recordings": 0, "repeats": 3, "wall_s": startup,
+                     "wall_per_recording_s": float("nan")})
+        print(f"snakemake start-up: {startup:.2f} s (median of 3)"
+              + ("; SLURM's scontrol does not answer: every snakemake run waits for it" if startup > 5 else ""))
 
         cases = [("height logs", size, LOG, "height_log") for size in args.sizes]
         if args.videos:

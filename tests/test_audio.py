@@ -345,7 +345,7 @@ def test_dropfit_run_on_a_sound_file_writes_every_file_and_the_report(tmp_path, 
     out = tmp_path / "out"
     assert (out / "report.png").read_bytes().startswith(b"\x89PNG")
     html = (out / "report.html").read_text(encoding="utf-8")
-    assert "Impacts heard in the sound" in html
+    assert "Impacts heard in the sound" in html and "<th>flight after ± se (ms)</th>" in html
     assert "not compared: held at that of a smooth ball" in html and "--drag option" not in html  # not the option's
     fit = json.loads((out / "fit.json").read_text(encoding="utf-8"))
     assert fit["drag"]["model"] == "nominal" and "impact times alone" in fit["drag"]["why"]
