@@ -118,6 +118,13 @@ def test_the_authors_table_of_times_is_read_when_its_column_is_mapped(tmp_path):
     a, b = from_table.impacts.iloc[1:-1], from_sound.impacts.iloc[1:author_s.size - 1]
     combined = np.hypot(a["e_se"].to_numpy(), b["e_se"].to_numpy())
     assert len(a) == 28 and np.all(np.abs(a["e"].to_numpy() - b["e"].to_numpy()) < 2.58 * combined)
+    # no release: the series is checked from the first impact, T1 (1 + e + … + e^(N-2)) against t_N - t_1
+    total = from_table.fit["theory"]["total_bouncing_time"]
+    e0 = from_table.fit["restitution_models"]["constant"]["parameters"]["e0"]["value"]
+    first_flight, n = author_s[1] - author_s[0], author_s.size
+    assert total["from_first_impact"] and total["measured_s"] == pytest.approx(author_s[-1] - author_s[0])
+    assert total["predicted_to_last_impact"]["value"] == pytest.approx(first_flight * (1 - e0 ** (n - 1)) / (1 - e0))
+    assert total["predicted_after_first_impact"]["value"] == pytest.approx(first_flight / (1 - e0))
 
 
 # --- flights ------------------------------------------------------------------------------------
@@ -184,6 +191,16 @@ def test_e_and_drop_height_from_sound_within_their_intervals(tmp_path, truth):
 
 #: Per-impact quantities whose intervals are checked against refsim's: dropfit's column, its se column.
 COVERED = {"e": "e_se", "v_in_m_s": "v_in_se_m_s", "v_out_m_s": "v_out_se_m_s", "h_after_m": "h_after_se_m"}
+
+
+def test_a_table_tennis_ball_of_unknown_size_has_a_regulation_balls_drag(tmp_path, truth):
+    """Only the ball type given: its drag is that of a ball as the ITTF's rules allow (40 mm, 2.7 g) and a note
+    says so; e within its interval of refsim's 0.89 (without drag it read 0.853 ± 0.0005, 75 se low)."""
+    path, sound = sound_file(tmp_path, truth)
+    result = analyse_recording(path, release_time_s=sound.options.lead_s, ball_type="table_tennis", gravity_m_s2=G)
+    e = result.fit["restitution"]["e"]
+    assert e["ci95"][0] < 0.89 < e["ci95"][1]
+    assert any("its drag is that of a table_tennis ball as its rules allow" in note for note in result.notes)
 
 
 def coverage_pairs(n_recordings, first_seed):
@@ -375,23 +392,26 @@ def write_bad(tmp_path, name, truth):
         path.write_text("impact_time_s\n0.5\n0.9\n", encoding="utf-8")
     elif name == "text.csv":
         path.write_text("impact_time_ms\n500\nabc\n900\n", encoding="utf-8")
+    elif name == "log_given_as_sound.csv":  # a height log's sample times are not impacts (they read e = 1)
+        samples = truth.sample(np.arange(0.0, 2.0, 0.01))
+        pd.DataFrame({"time_s": samples["t_s"], "y_m": samples["y_centre_m"]}).to_csv(path, index=False)
     return path
 
 
 @pytest.mark.parametrize("name, words", [
     ("empty.wav", "empty"), ("damaged.wav", "cannot be read as sound"), ("silence.wav", "impacts heard"),
     ("one_click.wav", "at least three"), ("unsorted.csv", "do not increase"), ("two.csv", "at least three"),
-    ("text.csv", "not a number"),
+    ("text.csv", "not a number"), ("log_given_as_sound.csv", "not a bouncing ball's impacts"),
 ])
 def test_bad_sound_input_is_one_line(tmp_path, truth, name, words):
     path = write_bad(tmp_path, name, truth)
-    result = dropfit("measure", path, "--out", tmp_path / "t.nc", cwd=tmp_path)
+    result = dropfit("measure", path, "--out", tmp_path / "t.nc", "--kind=audio", cwd=tmp_path)
     assert result.returncode == 1
     assert_one_line_error(result.stderr, name)
     assert words in result.stderr
     assert not (tmp_path / "t.nc").exists()
     with pytest.raises(InputError):
-        analyse_recording(path)
+        analyse_recording(path, kind="audio")
 
 
 def test_a_click_at_the_first_sample_is_no_trouble(truth):

@@ -112,6 +112,7 @@ def test_columns_option_maps_columns_the_names_do_not_tell(tmp_path, capsys):
     ("time_s,height_kg", {}, r"cannot tell which column is the height among 'time_s', 'height_kg'; name it with "
                              r"--columns time=time_s\[s\],y=COL\[m\]"),
     ("time (m),height (m)", {}, r"the time column 'time \(m\)' is in m, not a unit of time"),
+    ("a,b", {"columns": "time=a[ms]"}, r"--columns names no height \(y=COL\[m\]\) column; .* --kind audio"),
 ])
 def test_tables_that_cannot_be_read_say_why_in_one_line(header, options, message, tmp_path):
     """Each failure class of the generic reader: one InputError naming the file, what is wrong, what to try."""

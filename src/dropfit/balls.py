@@ -26,6 +26,47 @@ CONTACT_TIME_EXPONENT_SE = 0.07
 
 
 @dataclass(frozen=True)
+class Regulation:
+    """The size and mass a game's rules allow its ball: ranges, taken as uniform within them.
+
+    Attributes
+    ----------
+    diameter_m, mass_kg : (float, float)
+        Smallest and largest diameter (m) and mass (kg) allowed.
+    rule : str
+        Where the ranges are written.
+    """
+
+    diameter_m: tuple
+    mass_kg: tuple
+    rule: str
+
+    @property
+    def radius_m(self):
+        """Middle of the allowed radii (m)."""
+        return sum(self.diameter_m) / 4
+
+    @property
+    def mass_middle_kg(self):
+        """Middle of the allowed masses (kg)."""
+        return sum(self.mass_kg) / 2
+
+    @property
+    def area_per_mass_relative_se(self):
+        """Relative standard error of r²/m (what drag depends on) over the allowed ranges: each uniform,
+        half-range/√3 (r² twice r's)."""
+        radius = (self.diameter_m[1] - self.diameter_m[0]) / (self.diameter_m[1] + self.diameter_m[0]) / 3 ** 0.5
+        mass = (self.mass_kg[1] - self.mass_kg[0]) / (self.mass_kg[1] + self.mass_kg[0]) / 3 ** 0.5
+        return ((2 * radius) ** 2 + mass ** 2) ** 0.5
+
+
+#: ITF Rules of Tennis, Appendix I: 6.54-6.86 cm across, 56.0-59.4 g.
+TENNIS_REGULATION = Regulation((0.0654, 0.0686), (0.0560, 0.0594), "ITF Rules of Tennis, Appendix I")
+#: ITTF Handbook 2.3 (40 mm, 2.7 g) and its ball specification's tolerances, 39.5-40.5 mm and 2.67-2.77 g.
+TABLE_TENNIS_REGULATION = Regulation((0.0395, 0.0405), (0.00267, 0.00277), "ITTF Handbook 2.3, ball specification")
+
+
+@dataclass(frozen=True)
 class BallKind:
     """A kind of ball, with contact times at an impact speed of 1 m/s (s).
 
@@ -46,6 +87,9 @@ class BallKind:
         β of τ ∝ v^(−β) and its standard error: 0.2 for the Hertz contact of solid elastic balls, near
         0 for a shell that deforms like a spring (a table-tennis ball), between for a felt-covered
         pressurised tennis ball.
+    regulation : Regulation or None
+        The size and mass its rules prescribe (tennis, table tennis), used for its drag where the
+        recording's ball is not measured.
     """
 
     name: str
@@ -56,6 +100,7 @@ class BallKind:
     drag_coefficient_se: float = 0.125
     contact_time_exponent: float = CONTACT_TIME_EXPONENT
     contact_time_exponent_se: float = CONTACT_TIME_EXPONENT_SE
+    regulation: Regulation | None = None
 
 
 def contact_time_at(at_1_m_s, speed_m_s, exponent=CONTACT_TIME_EXPONENT):
@@ -64,10 +109,10 @@ def contact_time_at(at_1_m_s, speed_m_s, exponent=CONTACT_TIME_EXPONENT):
 
 
 BALL_KINDS = {kind.name: kind for kind in (
-    BallKind("tennis", 6.5e-3, 2.0e-3, 12e-3, 0.55, 0.06, 0.15, 0.05),
+    BallKind("tennis", 6.5e-3, 2.0e-3, 12e-3, 0.55, 0.06, 0.15, 0.05, TENNIS_REGULATION),
     BallKind("steel", 0.2e-3, 0.2e-3, 2e-3, 0.47, 0.05, 0.2, 0.03),
     BallKind("rubber", 1.3e-3, 0.8e-3, 6e-3, 0.47, 0.05, 0.15, 0.05),
-    BallKind("table_tennis", 1.0e-3, 0.5e-3, 3e-3, 0.47, 0.05, 0.05, 0.05),
+    BallKind("table_tennis", 1.0e-3, 0.5e-3, 3e-3, 0.47, 0.05, 0.05, 0.05, TABLE_TENNIS_REGULATION),
     BallKind("marble", 1.0e-3, 1.0e-3, 5e-3, 0.47, 0.05, 0.15, 0.05),
     BallKind("other", 2.5e-3, 2.5e-3, 20e-3),
 )}

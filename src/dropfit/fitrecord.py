@@ -97,10 +97,15 @@ def fit_summary(summary, impacts, settings=None, ball_type=None):
                                     fitted_impacts["impact"].to_numpy())
     # the seed's theory checks are those of a constant e, whichever model is the headline
     constant = models["models"]["constant"]["parameters"]["e0"]
-    fall_time = impacts["t_touchdown_s"].iloc[0] - summary["drop_apex_time_s"]
+    touchdowns = impacts["t_touchdown_s"].to_numpy(dtype=float)
+    fall_time = touchdowns[0] - summary["drop_apex_time_s"]
+    heard = summary.get("impacts_heard")
+    # impacts heard without the release: the series is checked from the first of them, as Erickson's is
+    from_first = bool(heard) and not np.isfinite(fall_time) and touchdowns.size > 1
     theory = theory_checks(constant["value"], constant["se"], summary["drop_height_m"], fall_time,
                            impacts["h_after_m"].to_numpy(), impacts["h_after_se_m"].to_numpy(),
-                           summary["rest_time_s"] - summary["drop_apex_time_s"], summary.get("impacts_heard"))
+                           summary["rest_time_s"] - (touchdowns[0] if from_first else summary["drop_apex_time_s"]),
+                           heard, touchdowns[1] - touchdowns[0] if from_first else None)
     if summary.get("horizontal"):  # a 2-D recording: the distance travelled while bouncing, u t∞
         theory["horizontal_distance"] = distance_check(summary["horizontal"], theory["total_bouncing_time"])
     if summary.get("bouncing_time_note"):  # a sound recording's bouncing time ends otherwise

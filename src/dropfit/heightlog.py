@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import csv
 import io
+import math
 import re
 from pathlib import Path
 
@@ -431,15 +432,33 @@ def scale_from_gravity(time_s, height_px, gravity_m_s2=STANDARD_GRAVITY_M_S2, so
 
 def nominal_drag_of(attrs):
     """The drag parameter k (1/m) of a smooth ball of the kind, size and mass in ``attrs`` and its relative
-    standard error; (0, 0) when the size or mass is not known."""
+    standard error; a kind with a regulation size and mass (tennis, table tennis) whose size or mass is not
+    given takes those, with their spread in the standard error (:func:`regulation_note` says so); (0, 0)
+    when the size or mass is not known."""
     from .balls import ball_kind
 
     radius, mass = attrs.get("ball_radius_m"), attrs.get("ball_mass_kg")
-    if not (radius and mass):
-        return 0.0, 0.0
     kind = ball_kind(attrs.get("ball_type"))
-    return (float(drag_parameter(kind.drag_coefficient, radius, mass)),
-            kind.drag_coefficient_se / kind.drag_coefficient)
+    relative_se = kind.drag_coefficient_se / kind.drag_coefficient
+    if not (radius and mass):
+        if kind.regulation is None:
+            return 0.0, 0.0
+        regulation = kind.regulation
+        return (float(drag_parameter(kind.drag_coefficient, regulation.radius_m, regulation.mass_middle_kg)),
+                math.hypot(relative_se, regulation.area_per_mass_relative_se))
+    return float(drag_parameter(kind.drag_coefficient, radius, mass)), relative_se
+
+
+def regulation_note(attrs):
+    """What :func:`nominal_drag_of` took for a ball whose size or mass is not given, or None."""
+    from .balls import ball_kind
+
+    regulation = ball_kind(attrs.get("ball_type")).regulation
+    if (attrs.get("ball_radius_m") and attrs.get("ball_mass_kg")) or regulation is None:
+        return None
+    return (f"the ball's size or mass is not given: its drag is that of a {attrs.get('ball_type')} ball as its rules "
+            f"allow ({100 * regulation.diameter_m[0]:g}-{100 * regulation.diameter_m[1]:g} cm, "
+            f"{1e3 * regulation.mass_kg[0]:g}-{1e3 * regulation.mass_kg[1]:g} g; {regulation.rule})")
 
 
 #: The point of the ball a log may give, and how many radii its centre lies above it.

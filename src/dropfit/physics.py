@@ -231,3 +231,11 @@ def touchdown_time(e, fall_time_s, impact):
     t₀ (1 + 2 Σ_{k=1}^{n−1} eᵏ), the partial sum of t∞'s series, constant e, no drag."""
     k = np.arange(1, int(impact))
     return fall_time_s * (1.0 + 2.0 * np.sum(e ** k)), fall_time_s * 2.0 * np.sum(k * e ** (k - 1))
+
+
+def time_after_first_touchdown(e, first_flight_s, impact):
+    """Time in s from touchdown 1 to touchdown ``impact`` (2, 3, …) and its derivative with respect to e (s):
+    T₁ Σ_{k=0}^{n−2} eᵏ, each flight e times the one before (T₁ the first), constant e, no drag; T₁/(1 − e)
+    summed to the end."""
+    k = np.arange(0, int(impact) - 1)
+    return first_flight_s * np.sum(e ** k), first_flight_s * np.sum(k * e ** (k - 1.0))

@@ -31,7 +31,7 @@ from .balls import ball_kind
 from .errors import InputError, NotFreeFallError, shown_path
 from .files import sha256_of
 from .fitrecord import analysis_summary, fit_summary, plain
-from .heightlog import nominal_drag_of, trajectory_from_log
+from .heightlog import nominal_drag_of, regulation_note, trajectory_from_log
 from .result import RecordingResult
 from .settings import Ball, Settings, split_options
 from .video.quality import TRACKED_CENTRE_CORRELATION
@@ -135,6 +135,8 @@ def measure_recording(path, ball=None, settings=None, *, sample_id=None, tracked
     attrs = {"sample_id": sample_id, "ball_radius_m": ball.radius_m, "ball_mass_kg": ball.mass_kg,
              "ball_type": ball.type, "floor_m": settings.floor_m, "dropfit_version": __version__,
              "gravity_m_s2": gravity.value_m_s2, "gravity_se_m_s2": gravity.se_m_s2, "gravity_source": gravity.source}
+    if regulation_note(attrs):
+        attrs["ball_size_note"] = regulation_note(attrs)
     scale = settings.scale_m_per_px
     kind = recording_kind(path, settings)
     if settings.release_time_s is not None and kind != "audio":

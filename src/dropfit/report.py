@@ -847,11 +847,15 @@ def _section_theory(fit):
     total = theory["total_bouncing_time"]
     if total.get("predicted_to_last_impact"):  # the time ends at a counted impact (the last heard)
         last = f"impact {total['impacts_counted']}"
-        rows = [(f"Time from release to {last} (the last heard), measured", f"{_num(total.get('measured_s'), '.3f')} s"),
-                (f"Time to {last}, predicted t₀(1 + 2Σeᵏ)", escape(_estimate(total["predicted_to_last_impact"], "s"))),
+        start, series, infinite = (("the first impact", "T₁(1 + e + … + eᴺ⁻²)", "after the first impact, T₁/(1 − e)")
+                                   if total.get("from_first_impact") else
+                                   ("release", "t₀(1 + 2Σeᵏ)", "t∞ = t₀(1 + e)/(1 − e)"))
+        rows = [(f"Time from {start} to {last} (the last heard), measured", f"{_num(total.get('measured_s'), '.3f')} s"),
+                (f"Time to {last}, predicted {series}", escape(_estimate(total["predicted_to_last_impact"], "s"))),
                 ("Measured against predicted", _against_prediction(total.get("measured_s"),
                                                                    total["predicted_to_last_impact"])),
-                ("Total bouncing time t∞, predicted", escape(_estimate(total.get("predicted"), "s")))]
+                (f"Total bouncing time {infinite}, predicted",
+                 escape(_estimate(total.get("predicted_after_first_impact") or total.get("predicted"), "s")))]
     else:
         rows = [("Total bouncing time, measured", f"{_num(total.get('measured_s'), '.3f')} s"),
                 ("Total bouncing time t∞, predicted", escape(_estimate(total.get("predicted"), "s"))),

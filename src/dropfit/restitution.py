@@ -7,7 +7,8 @@ from __future__ import annotations
 import numpy as np
 
 from .numerics import chi2_tail, jacobian, normal_quantile, propagate
-from .physics import apex_rise, bounce_heights, speed_below_apex, total_bouncing_time, touchdown_time
+from .physics import (apex_rise, bounce_heights, speed_below_apex, time_after_first_touchdown,
+                      total_bouncing_time, touchdown_time)
 
 Z95 = float(normal_quantile(0.975))
 
@@ -111,7 +112,7 @@ def constant_restitution(e, covariance):
 
 
 def theory_checks(e, e_se, drop_height_m, fall_time_s, measured_heights_m, measured_heights_se_m,
-                  measured_bouncing_time_s, impacts_counted=None):
+                  measured_bouncing_time_s, impacts_counted=None, first_flight_s=None):
     """Compare the measured bounce sequence with the seed's constant-e, no-drag predictions.
 
     Parameters
@@ -130,6 +131,10 @@ def theory_checks(e, e_se, drop_height_m, fall_time_s, measured_heights_m, measu
     impacts_counted : int, optional
         The measured time ends at this touchdown (the last impact heard in a sound): it is checked
         against the partial sum to that touchdown, not against t∞, which counts every later one.
+    first_flight_s : float, optional
+        With ``impacts_counted`` and no release (``fall_time_s`` NaN): the time between the first two
+        touchdowns, s; the measured time then runs from the first touchdown and is checked against
+        T₁ Σ eᵏ.
 
     Returns
     -------
@@ -137,7 +142,8 @@ def theory_checks(e, e_se, drop_height_m, fall_time_s, measured_heights_m, measu
         ``heights`` (one entry per bounce: measured and predicted e^{2n}h₀ in m) and
         ``total_bouncing_time`` (t∞ = t₀(1+e)/(1−e) in s against the measured time; with
         ``impacts_counted`` also ``predicted_to_last_impact``, t₀(1 + 2Σeᵏ) in s, which the measured time
-        is checked against, and ``impacts_counted``).
+        is checked against, and ``impacts_counted``; from the first touchdown, ``from_first_impact``,
+        T₁ Σ eᵏ and ``predicted_after_first_impact``, T₁/(1 − e)).
     """
     n = len(measured_heights_m)
     predicted = bounce_heights(e, drop_height_m, n)
@@ -149,7 +155,13 @@ def theory_checks(e, e_se, drop_height_m, fall_time_s, measured_heights_m, measu
              "fall_time_s": float(fall_time_s),
              "note": "the measured time ends when the ball stays within 5 noise standard deviations of the floor; "
                      "bounces lower than that are not seen, and drag shortens every flight"}
-    if impacts_counted:
+    if impacts_counted and first_flight_s is not None and not np.isfinite(fall_time_s):
+        t_last, slope = time_after_first_touchdown(e, first_flight_s, impacts_counted)
+        total.update(predicted_to_last_impact=estimate(t_last, abs(slope) * e_se, "s"),
+                     impacts_counted=int(impacts_counted), from_first_impact=True,
+                     predicted_after_first_impact=estimate(first_flight_s / (1.0 - e),
+                                                           first_flight_s / (1.0 - e) ** 2 * e_se, "s"))
+    elif impacts_counted:
         t_last, slope = touchdown_time(e, fall_time_s, impacts_counted)
         total.update(predicted_to_last_impact=estimate(t_last, abs(slope) * e_se, "s"),
                      impacts_counted=int(impacts_counted))

@@ -144,6 +144,12 @@ def read_impact_table(path, columns=None):
         bad = int(np.flatnonzero(np.diff(times) <= 0)[0])
         raise InputError(f"{name}: the impact times do not increase (row {bad + 2} is {times[bad + 1]:g} s after "
                          f"{times[bad]:g} s); sort them, one impact per row")
+    intervals = np.diff(times)
+    if intervals.size >= 2 and np.median(intervals[1:] / intervals[:-1]) >= 1.0:
+        # a bouncing ball's flights shrink; a log's sample times (read as impacts, e = 1) do not
+        raise InputError(f"{name}: the times are not a bouncing ball's impacts: their intervals do not shrink "
+                         f"(median ratio {np.median(intervals[1:] / intervals[:-1]):.3f}); a height log is read "
+                         f"without --kind audio")
     if np.any(se[np.isfinite(se)] < 0):
         raise InputError(f"{name}: a standard error of an impact time is negative; give it as a positive number")
     return times, se, kind

@@ -275,6 +275,10 @@ def choose_columns(table, columns, mapping=None, run=None):
     """
     name = shown_path(table.path)
     if mapping:
+        if not {"time", "frame"} & mapping.keys() or not {"y", "distance"} & mapping.keys():
+            missing = "time (time=COL[s])" if not {"time", "frame"} & mapping.keys() else "height (y=COL[m])"
+            raise InputError(f"{name}: --columns names no {missing} column; a height log needs both (a table of "
+                             f"impact times heard in a sound is read with --kind audio)")
         return {role: _named_column(table, columns, column, role) for role, (column, _) in mapping.items()}
     chosen = {}
     for role in ROLE_NAMES:
