@@ -6,6 +6,7 @@ code with the detector) from refsim's bounce physics, and the closed forms of a 
 import dataclasses
 import json
 import re
+import zipfile
 
 import av
 import numpy as np
@@ -118,12 +119,15 @@ def test_the_authors_table_of_times_is_read_when_its_column_is_mapped(tmp_path):
     a, b = from_table.impacts.iloc[1:-1], from_sound.impacts.iloc[1:author_s.size - 1]
     combined = np.hypot(a["e_se"].to_numpy(), b["e_se"].to_numpy())
     assert len(a) == 28 and np.all(np.abs(a["e"].to_numpy() - b["e"].to_numpy()) < 2.58 * combined)
-    # no release: the series is checked from the first impact, T1 (1 + e + … + e^(N-2)) against t_N - t_1
+    # no release: the series is checked from the first impact, T1 (1 + e + … + e^(N-2)) and the contacts
+    # between (touchdowns are a contact and a flight apart) against t_N - t_1
     total = from_table.fit["theory"]["total_bouncing_time"]
     e0 = from_table.fit["restitution_models"]["constant"]["parameters"]["e0"]["value"]
-    first_flight, n = author_s[1] - author_s[0], author_s.size
+    impacts, n = from_table.impacts, author_s.size
+    first_flight, contacts = impacts["flight_time_after_s"].iloc[0], impacts["t_contact_ms"].iloc[:-1].sum() / 1e3
     assert total["from_first_impact"] and total["measured_s"] == pytest.approx(author_s[-1] - author_s[0])
-    assert total["predicted_to_last_impact"]["value"] == pytest.approx(first_flight * (1 - e0 ** (n - 1)) / (1 - e0))
+    assert total["predicted_to_last_impact"]["value"] == pytest.approx(
+        first_flight * (1 - e0 ** (n - 1)) / (1 - e0) + contacts)
     assert total["predicted_after_first_impact"]["value"] == pytest.approx(first_flight / (1 - e0))
 
 
@@ -180,8 +184,9 @@ def test_e_and_drop_height_from_sound_within_their_intervals(tmp_path, truth):
     e0 = result.fit["restitution_models"]["constant"]["parameters"]["e0"]["value"]
     last_touchdown = truth.impacts["t_touchdown_s"].to_numpy()[n - 1]  # refsim's clock starts at the release
     assert n == len(impacts) and total["measured_s"] == pytest.approx(last_touchdown, abs=1e-3)
-    assert total["predicted_to_last_impact"]["value"] == pytest.approx(t0 * (1 + 2 * e0 * (1 - e0 ** (n - 1)) / (1 - e0)),
-                                                                       rel=1e-9)
+    contacts = impacts["t_contact_ms"].iloc[:-1].sum() / 1e3  # touchdowns are a contact and a flight apart
+    assert total["predicted_to_last_impact"]["value"] == pytest.approx(
+        t0 * (1 + 2 * e0 * (1 - e0 ** (n - 1)) / (1 - e0)) + contacts, rel=1e-9)
 
     unknown = analyse_recording(path, **TABLE_TENNIS, gravity_m_s2=G)
     assert np.isnan(unknown.fit["drop_height_m"]["value"])
@@ -201,6 +206,8 @@ def test_a_table_tennis_ball_of_unknown_size_has_a_regulation_balls_drag(tmp_pat
     e = result.fit["restitution"]["e"]
     assert e["ci95"][0] < 0.89 < e["ci95"][1]
     assert any("its drag is that of a table_tennis ball as its rules allow" in note for note in result.notes)
+    without_drag = analyse_recording(path, ball_type="table_tennis", gravity_m_s2=G, drag="off")
+    assert not any("as its rules allow" in note for note in without_drag.notes)  # no drag, nothing stood in
 
 
 def coverage_pairs(n_recordings, first_seed):
@@ -392,9 +399,18 @@ def write_bad(tmp_path, name, truth):
         path.write_text("impact_time_s\n0.5\n0.9\n", encoding="utf-8")
     elif name == "text.csv":
         path.write_text("impact_time_ms\n500\nabc\n900\n", encoding="utf-8")
-    elif name == "log_given_as_sound.csv":  # a height log's sample times are not impacts (they read e = 1)
-        samples = truth.sample(np.arange(0.0, 2.0, 0.01))
+    elif name in ("log_given_as_sound.csv", "jittered_log_given_as_sound.csv"):  # sample times are not impacts
+        times = np.arange(0.0, 2.0, 0.01)  # (they read e = 1); jittered, half their ratios fall below 1
+        if name.startswith("jittered"):
+            times = times + np.random.default_rng(3).normal(0.0, 1e-3, times.size)
+        samples = truth.sample(times)
         pd.DataFrame({"time_s": samples["t_s"], "y_m": samples["y_centre_m"]}).to_csv(path, index=False)
+    elif name == "damaged.zip":
+        path.write_bytes(b"not a zip")
+    elif name == "accelerometer.zip":  # another phyphox experiment's export
+        with zipfile.ZipFile(path, "w") as archive:
+            archive.writestr("Accelerometer.csv", "Time (s),X (m/s^2)\n0,1\n0.1,2\n")
+            archive.writestr("meta/device.csv", "a,b\n1,2\n")
     return path
 
 
@@ -402,6 +418,8 @@ def write_bad(tmp_path, name, truth):
     ("empty.wav", "empty"), ("damaged.wav", "cannot be read as sound"), ("silence.wav", "impacts heard"),
     ("one_click.wav", "at least three"), ("unsorted.csv", "do not increase"), ("two.csv", "at least three"),
     ("text.csv", "not a number"), ("log_given_as_sound.csv", "not a bouncing ball's impacts"),
+    ("jittered_log_given_as_sound.csv", "not a bouncing ball's impacts"), ("damaged.zip", "not a phyphox"),
+    ("accelerometer.zip", "not a phyphox"),
 ])
 def test_bad_sound_input_is_one_line(tmp_path, truth, name, words):
     path = write_bad(tmp_path, name, truth)

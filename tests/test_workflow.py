@@ -153,9 +153,11 @@ def test_sample_sheet_errors_are_one_line_each(tmp_path):
 
 def test_config_values_on_the_command_line_are_read_as_in_a_config_file(tmp_path):
     """``--config fail_on_failed_recordings=false`` is the boolean a config file's ``false`` is (it was refused
-    as "'false' is not of type 'boolean'"); a value of the wrong type is still one line."""
+    as "'false' is not of type 'boolean'"), nested numbers (``itf={drop_height_m: 2.5}``) are numbers; a value
+    of the wrong type is still one line."""
     root = copy_workflow(tmp_path)
-    given = snakemake("-n", "--directory", ".test", "--config", "fail_on_failed_recordings=false", cwd=root)
+    given = snakemake("-n", "--directory", ".test", "--config", "fail_on_failed_recordings=false",
+                      "itf={drop_height_m: 2.5, rebound_min_m: 1.3}", cwd=root)
     assert given.returncode == 0, given.stderr
     wrong = snakemake("-n", "--directory", ".test", "--config", "fail_on_failed_recordings=perhaps", cwd=root)
     assert wrong.returncode == 1

@@ -51,13 +51,12 @@ class Regulation:
         """Middle of the allowed masses (kg)."""
         return sum(self.mass_kg) / 2
 
-    @property
-    def area_per_mass_relative_se(self):
-        """Relative standard error of r²/m (what drag depends on) over the allowed ranges: each uniform,
-        half-range/√3 (r² twice r's)."""
+    def area_per_mass_relative_se(self, radius_given=False, mass_given=False):
+        """Relative standard error of r²/m (what drag depends on) from what is taken from the allowed ranges
+        (each uniform: half-range/√3; r² twice r's); a quantity given adds none."""
         radius = (self.diameter_m[1] - self.diameter_m[0]) / (self.diameter_m[1] + self.diameter_m[0]) / 3 ** 0.5
         mass = (self.mass_kg[1] - self.mass_kg[0]) / (self.mass_kg[1] + self.mass_kg[0]) / 3 ** 0.5
-        return ((2 * radius) ** 2 + mass ** 2) ** 0.5
+        return ((0.0 if radius_given else 2 * radius) ** 2 + (0.0 if mass_given else mass) ** 2) ** 0.5
 
 
 #: ITF Rules of Tennis, Appendix I: 6.54-6.86 cm across, 56.0-59.4 g.

@@ -26,8 +26,9 @@ from .synth import simulate_drop, synthesize
 #: 254 cm rebound of the tennis balls is predicted from a constant e and from a linear e(v).
 #: ``nominal_drag``: the ball's size and mass are given to the analysis, and the truth's C_d is drawn
 #: from the prior the analysis assumes (the ball kind's C_d and its se); otherwise the analysis is not given the
-#: mass, so it knows no drag. The truth's g is drawn from the spread the analysis assumes for a site it
-#: is not told about (:func:`site_gravity_draw`); ``gravity_known``: the site's g is given (as a lab
+#: mass, so it knows no drag (but a tennis or table-tennis ball's, from its rules' mass:
+#: :func:`dropfit.heightlog.nominal_drag_of`). The truth's g is drawn from the spread the analysis assumes for a
+#: site it is not told about (:func:`site_gravity_draw`); ``gravity_known``: the site's g is given (as a lab
 #: that measured it would give it), so the intervals of the 2 kHz contact scenario are tested without
 #: g's share, which would dominate them, and the long rubber log's drag choice without a g error that
 #: a free drag would partly absorb.

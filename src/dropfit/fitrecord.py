@@ -102,10 +102,15 @@ def fit_summary(summary, impacts, settings=None, ball_type=None):
     heard = summary.get("impacts_heard")
     # impacts heard without the release: the series is checked from the first of them, as Erickson's is
     from_first = bool(heard) and not np.isfinite(fall_time) and touchdowns.size > 1
+    # touchdowns heard are a contact and a flight apart: the contacts before the last (the kind's prior,
+    # one systematic error for all)
+    contacts = impacts["t_contact_ms"].to_numpy(dtype=float)[:-1] if heard else np.zeros(0)
+    contacts_se = impacts["t_contact_se_ms"].to_numpy(dtype=float)[:-1] if heard else np.zeros(0)
     theory = theory_checks(constant["value"], constant["se"], summary["drop_height_m"], fall_time,
                            impacts["h_after_m"].to_numpy(), impacts["h_after_se_m"].to_numpy(),
                            summary["rest_time_s"] - (touchdowns[0] if from_first else summary["drop_apex_time_s"]),
-                           heard, touchdowns[1] - touchdowns[0] if from_first else None)
+                           heard, impacts["flight_time_after_s"].iloc[0] if from_first else None,
+                           (1e-3 * float(np.nansum(contacts)), 1e-3 * float(np.nansum(contacts_se))))
     if summary.get("horizontal"):  # a 2-D recording: the distance travelled while bouncing, u t∞
         theory["horizontal_distance"] = distance_check(summary["horizontal"], theory["total_bouncing_time"])
     if summary.get("bouncing_time_note"):  # a sound recording's bouncing time ends otherwise
@@ -124,10 +129,13 @@ def fit_summary(summary, impacts, settings=None, ball_type=None):
     }
     if summary["drag_model"] == "nominal" and not summary.get("drag_why"):
         kind = ball_kind(attrs.get("ball_type"))
-        drag["note"] = (f"k is not fitted freely: held at that of a smooth {kind.name} ball of this size and mass "
+        drag["note"] = (f"k is not fitted freely: held at that of a smooth {kind.name} ball of its size and mass "
                         f"(C_d = {kind.drag_coefficient:g} ± {kind.drag_coefficient_se:g}) combined with what the "
                         f"flights say about k; its standard error is carried into every e, height and contact time "
                         f"as a systematic error")
+    size_note = summary.get("ball_size_note")
+    if isinstance(size_note, str) and size_note:  # a regulation ball's size and mass stand in (NaN read back: none)
+        drag["note"] = "; ".join(filter(None, (drag.get("note"), size_note)))
     result = {
         "status": "ok",
         "sample_id": attrs.get("sample_id"),

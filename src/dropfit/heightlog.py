@@ -356,7 +356,8 @@ def flight_acceleration(time_s, height_px, source="log", nominal_drag_k_per_m=0.
     source : str
         Recording name for error messages.
     nominal_drag_k_per_m, nominal_drag_relative_se : float
-        The ball's drag parameter (1/m; 0 when its size and mass are not known) and its relative se.
+        The ball's drag parameter (1/m; 0 when its size or mass is not known, nor its rules') and its
+        relative se.
     gravity_m_s2 : float
         g in m/s², to bring the drag parameter to px.
 
@@ -432,20 +433,22 @@ def scale_from_gravity(time_s, height_px, gravity_m_s2=STANDARD_GRAVITY_M_S2, so
 
 def nominal_drag_of(attrs):
     """The drag parameter k (1/m) of a smooth ball of the kind, size and mass in ``attrs`` and its relative
-    standard error; a kind with a regulation size and mass (tennis, table tennis) whose size or mass is not
-    given takes those, with their spread in the standard error (:func:`regulation_note` says so); (0, 0)
-    when the size or mass is not known."""
+    standard error; a kind with a regulation size and mass (tennis, table tennis) takes the one not given
+    from its rules, with their spread in the standard error (:func:`regulation_note` says so); (0, 0)
+    when the size or mass is not known otherwise."""
     from .balls import ball_kind
 
     radius, mass = attrs.get("ball_radius_m"), attrs.get("ball_mass_kg")
     kind = ball_kind(attrs.get("ball_type"))
     relative_se = kind.drag_coefficient_se / kind.drag_coefficient
     if not (radius and mass):
-        if kind.regulation is None:
-            return 0.0, 0.0
         regulation = kind.regulation
-        return (float(drag_parameter(kind.drag_coefficient, regulation.radius_m, regulation.mass_middle_kg)),
-                math.hypot(relative_se, regulation.area_per_mass_relative_se))
+        if regulation is None:
+            return 0.0, 0.0
+        # only what is not given is the rules' (its spread into k's se)
+        spread = regulation.area_per_mass_relative_se(radius_given=bool(radius), mass_given=bool(mass))
+        return (float(drag_parameter(kind.drag_coefficient, radius or regulation.radius_m,
+                                     mass or regulation.mass_middle_kg)), math.hypot(relative_se, spread))
     return float(drag_parameter(kind.drag_coefficient, radius, mass)), relative_se
 
 

@@ -234,8 +234,10 @@ def touchdown_time(e, fall_time_s, impact):
 
 
 def time_after_first_touchdown(e, first_flight_s, impact):
-    """Time in s from touchdown 1 to touchdown ``impact`` (2, 3, …) and its derivative with respect to e (s):
-    T₁ Σ_{k=0}^{n−2} eᵏ, each flight e times the one before (T₁ the first), constant e, no drag; T₁/(1 − e)
-    summed to the end."""
+    """Flight time in s from touchdown 1 to touchdown ``impact`` (2, 3, …; ``numpy.inf``: every one) and its
+    derivative with respect to e (s): T₁ Σ_{k=0}^{n−2} eᵏ, each flight e times the one before (T₁ the first),
+    constant e, no drag; T₁/(1 − e) summed to the end."""
+    if np.isinf(impact):
+        return first_flight_s / (1.0 - e), first_flight_s / (1.0 - e) ** 2
     k = np.arange(0, int(impact) - 1)
     return first_flight_s * np.sum(e ** k), first_flight_s * np.sum(k * e ** (k - 1.0))

@@ -135,8 +135,6 @@ def measure_recording(path, ball=None, settings=None, *, sample_id=None, tracked
     attrs = {"sample_id": sample_id, "ball_radius_m": ball.radius_m, "ball_mass_kg": ball.mass_kg,
              "ball_type": ball.type, "floor_m": settings.floor_m, "dropfit_version": __version__,
              "gravity_m_s2": gravity.value_m_s2, "gravity_se_m_s2": gravity.se_m_s2, "gravity_source": gravity.source}
-    if regulation_note(attrs):
-        attrs["ball_size_note"] = regulation_note(attrs)
     scale = settings.scale_m_per_px
     kind = recording_kind(path, settings)
     if settings.release_time_s is not None and kind != "audio":
@@ -186,8 +184,9 @@ def analysis_options(attrs, settings=None, sample_interval_s=0.0):
         ``contact_height_found`` (whether it was found, not given),
         ``source``, ``scale_rel_se`` (1), ``contact_guard_s`` (half a frame interval for a video, whose
         frames are exposed around their time; else 0), ``nominal_drag_k_per_m`` and
-        ``nominal_drag_relative_se`` (a smooth ball of the kind's C_d, size and mass, 1/m; 0 when the
-        size or mass is unknown), ``noise_correlation``
+        ``nominal_drag_relative_se`` (a smooth ball of the kind's C_d, size and mass, 1/m; a tennis or
+        table-tennis ball's size or mass not given: as its rules allow; else 0 when either is unknown),
+        ``noise_correlation``
         (:data:`dropfit.video.quality.TRACKED_CENTRE_CORRELATION` for a video, else 0), and the ball kind's
         contact-time prior, exponent and longest contact time (:mod:`dropfit.balls`) with the radius.
     """
@@ -255,7 +254,8 @@ def analyse_trajectory(trajectory, settings=None, source=None):
         analysis = analyse_sound(trajectory.assign_attrs(attrs), settings.site_gravity(), settings.drag,
                                  nominal_drag_of(attrs))
         record = {"drag": settings.drag, "nominal_drag_k_per_m": analysis.summary["drag_k_per_m"]}
-        summary = dict(analysis.summary, analysis_options=record, gravity=settings.site_gravity().record())
+        summary = dict(analysis.summary, analysis_options=record, gravity=settings.site_gravity().record(),
+                       ball_size_note=_ball_size_note(analysis.summary, attrs))
         return dataclasses.replace(analysis, summary=summary)
     time = trajectory["time"].values
     interval = float(np.median(np.diff(time))) if time.size > 1 else 0.0
@@ -281,8 +281,15 @@ def analyse_trajectory(trajectory, settings=None, source=None):
     if "x" in trajectory:  # a 2-D recording: the tangential velocities and angles (e stays the vertical fit's)
         analysis = add_horizontal(analysis, time, trajectory["x"].values, options["noise_correlation"])
     record = {key: plain(value) for key, value in options.items() if key != "source"}
-    summary = dict(analysis.summary, analysis_options=record, gravity=settings.site_gravity().record())
+    summary = dict(analysis.summary, analysis_options=record, gravity=settings.site_gravity().record(),
+                   ball_size_note=_ball_size_note(analysis.summary, attrs))
     return dataclasses.replace(analysis, summary=summary)
+
+
+def _ball_size_note(summary, attrs):
+    """The note that the drag held (``nominal``) is a regulation ball's, when the ball's size or mass was not
+    given (:func:`dropfit.heightlog.regulation_note`); None otherwise."""
+    return regulation_note(attrs) if summary.get("drag_model") == "nominal" else None
 
 
 def fit_analysis(analysis, trajectory_attrs, settings=None, ball_type=None):

@@ -4,6 +4,8 @@ ITF verdict. Pure functions on the outputs of :func:`dropfit.analysis.analyse_bo
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from .numerics import chi2_tail, jacobian, normal_quantile, propagate
@@ -112,7 +114,7 @@ def constant_restitution(e, covariance):
 
 
 def theory_checks(e, e_se, drop_height_m, fall_time_s, measured_heights_m, measured_heights_se_m,
-                  measured_bouncing_time_s, impacts_counted=None, first_flight_s=None):
+                  measured_bouncing_time_s, impacts_counted=None, first_flight_s=None, contact_time_s=(0.0, 0.0)):
     """Compare the measured bounce sequence with the seed's constant-e, no-drag predictions.
 
     Parameters
@@ -132,9 +134,12 @@ def theory_checks(e, e_se, drop_height_m, fall_time_s, measured_heights_m, measu
         The measured time ends at this touchdown (the last impact heard in a sound): it is checked
         against the partial sum to that touchdown, not against t∞, which counts every later one.
     first_flight_s : float, optional
-        With ``impacts_counted`` and no release (``fall_time_s`` NaN): the time between the first two
-        touchdowns, s; the measured time then runs from the first touchdown and is checked against
-        T₁ Σ eᵏ.
+        With ``impacts_counted`` and no release (``fall_time_s`` NaN): the first flight's time (lift-off
+        to touchdown), s; the measured time then runs from the first touchdown and is checked against
+        T₁ Σ eᵏ plus the contact times.
+    contact_time_s : (float, float)
+        With ``impacts_counted``: the time the ball spends on the floor at the impacts before the last
+        counted one, and its standard error, s (touchdowns are a contact and a flight apart).
 
     Returns
     -------
@@ -155,15 +160,16 @@ def theory_checks(e, e_se, drop_height_m, fall_time_s, measured_heights_m, measu
              "fall_time_s": float(fall_time_s),
              "note": "the measured time ends when the ball stays within 5 noise standard deviations of the floor; "
                      "bounces lower than that are not seen, and drag shortens every flight"}
+    on_floor, on_floor_se = contact_time_s
     if impacts_counted and first_flight_s is not None and not np.isfinite(fall_time_s):
         t_last, slope = time_after_first_touchdown(e, first_flight_s, impacts_counted)
-        total.update(predicted_to_last_impact=estimate(t_last, abs(slope) * e_se, "s"),
+        t_all, slope_all = time_after_first_touchdown(e, first_flight_s, np.inf)
+        total.update(predicted_to_last_impact=estimate(t_last + on_floor, math.hypot(slope * e_se, on_floor_se), "s"),
                      impacts_counted=int(impacts_counted), from_first_impact=True,
-                     predicted_after_first_impact=estimate(first_flight_s / (1.0 - e),
-                                                           first_flight_s / (1.0 - e) ** 2 * e_se, "s"))
+                     predicted_after_first_impact=estimate(t_all, abs(slope_all) * e_se, "s"))
     elif impacts_counted:
         t_last, slope = touchdown_time(e, fall_time_s, impacts_counted)
-        total.update(predicted_to_last_impact=estimate(t_last, abs(slope) * e_se, "s"),
+        total.update(predicted_to_last_impact=estimate(t_last + on_floor, math.hypot(slope * e_se, on_floor_se), "s"),
                      impacts_counted=int(impacts_counted))
     return {
         "heights": [

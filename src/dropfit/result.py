@@ -263,7 +263,7 @@ def _notes(fit, summary, attrs):
         notes.append(f"drag: {fit['drag']['note']}")
     if fit["itf"]["verdict"] == "not applicable":
         notes.append(f"no ITF verdict: {fit['itf'].get('why')}")
-    for key in ("ruler_note", "target_note", "tilt_note", "floor_note", "ball_size_note", "gravity_calibration_failed"):
+    for key in ("ruler_note", "target_note", "tilt_note", "floor_note", "gravity_calibration_failed"):
         if attrs.get(key):
             notes.append(f"{key.replace('_', ' ')}: {attrs[key]}")
     gravity = summary.get("gravity") or {}

@@ -92,11 +92,15 @@ def stop_on_problems(problems):
 
 
 def typed_command_line_values(config, schema):
-    """``snakemake --config key=value`` passes ``false`` and ``1e-3`` as text where a config file gives YAML's
-    boolean and number: a value the schema does not allow as text is read as YAML reads it."""
+    """``snakemake --config key=value`` passes ``false`` (and every value of ``key={a: 1}``) as text where a config
+    file gives YAML's boolean and number: a value the schema does not allow as text is read as YAML reads it,
+    in nested keys too."""
     for key, value in config.items():
-        kinds = schema["properties"].get(key, {}).get("type", [])
-        if isinstance(value, str) and "string" not in ([kinds] if isinstance(kinds, str) else kinds):
+        part = schema.get("properties", {}).get(key, {})
+        kinds = part.get("type", [])
+        if isinstance(value, dict):
+            typed_command_line_values(value, part)
+        elif isinstance(value, str) and "string" not in ([kinds] if isinstance(kinds, str) else kinds):
             try:
                 config[key] = yaml.safe_load(value)
             except yaml.YAMLError:  # left as text: the schema's check names it

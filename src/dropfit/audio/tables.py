@@ -113,6 +113,9 @@ def read_impact_table(path, columns=None):
     """
     name = shown_path(path)
     zipped = _phyphox_collision_set(path) if str(path).lower().endswith(ZIP_SUFFIX) else None
+    if zipped is None and str(path).lower().endswith(ZIP_SUFFIX):
+        raise InputError(f"{name}: is not a phyphox \"(In)elastic collision\" export (no set with columns "
+                         f"'Bounce n (s)'); export that experiment, or give its CSV")
     source = path if zipped is None else io.StringIO(zipped)
     header = _header(path) if zipped is None else _first_line(zipped.splitlines())
     separator = ";" if header.count(";") > max(header.count(","), header.count("\t")) else \
@@ -144,15 +147,26 @@ def read_impact_table(path, columns=None):
         bad = int(np.flatnonzero(np.diff(times) <= 0)[0])
         raise InputError(f"{name}: the impact times do not increase (row {bad + 2} is {times[bad + 1]:g} s after "
                          f"{times[bad]:g} s); sort them, one impact per row")
-    intervals = np.diff(times)
-    if intervals.size >= 2 and np.median(intervals[1:] / intervals[:-1]) >= 1.0:
+    if not _intervals_shrink(np.diff(times)):
         # a bouncing ball's flights shrink; a log's sample times (read as impacts, e = 1) do not
         raise InputError(f"{name}: the times are not a bouncing ball's impacts: their intervals do not shrink "
-                         f"(median ratio {np.median(intervals[1:] / intervals[:-1]):.3f}); a height log is read "
+                         f"(their logarithm falls by less than 3 standard errors per impact); a height log is read "
                          f"without --kind audio")
     if np.any(se[np.isfinite(se)] < 0):
         raise InputError(f"{name}: a standard error of an impact time is negative; give it as a positive number")
     return times, se, kind
+
+
+def _intervals_shrink(intervals):
+    """Whether ``intervals`` (s) shrink as a bouncing ball's do: the slope of their logarithm against the impact
+    number (ln e, per impact) below 0 by 3 of its standard errors; fewer than three intervals pass."""
+    if intervals.size < 3:
+        return True
+    number = np.arange(intervals.size)
+    slope, intercept = np.polyfit(number, np.log(intervals), 1)
+    residuals = np.log(intervals) - (slope * number + intercept)
+    slope_se = np.sqrt(np.sum(residuals ** 2) / (intervals.size - 2) / np.sum((number - number.mean()) ** 2))
+    return slope < -3 * slope_se
 
 
 def _time_column(path, headers, columns=None):
@@ -176,8 +190,9 @@ def _time_column(path, headers, columns=None):
                              f"are {quoted(headers)}")
         unit = unit or parsed[header].unit
         if unit not in TIME_UNITS_S:
-            raise InputError(f"{name}: the unit of the impact times in '{shown(header, 30)}' is not known; give it: "
-                             f"--columns time={shown(header, 30)}[ms] (or [s])")
+            what = f"is {unit}, not a unit of time" if unit else "is not known"
+            raise InputError(f"{name}: the unit of the impact times in '{shown(header, 30)}' {what}; give it: "
+                             f"--columns time={shown(parsed[header].name or header, 30)}[ms] (or [s])")
         return header, unit
     lowered = {header.lower(): header for header in headers}
     named = next((column for column in _UNITS if column in lowered), None)
@@ -188,7 +203,7 @@ def _time_column(path, headers, columns=None):
     if len(candidates) == 1:
         return candidates[0], parsed[candidates[0]].unit
     unitless = next((header for header, column in parsed.items() if column.name in IMPACT_TIME_NAMES), None)
-    example = f"--columns time={shown(unitless or (headers[0] if headers else 'COL'), 30)}[ms]"
+    example = f"--columns time={shown(unitless or (headers[0] if headers else 'COL'), 30)}[ms] (or [s])"
     raise InputError(f"{name}: no single column of impact times with its unit among {quoted(headers)}; name it "
                      f"impact_time_s or impact_time_ms, or map it: {example}")
 
