@@ -399,8 +399,10 @@ def write_bad(tmp_path, name, truth):
         path.write_text("impact_time_s\n0.5\n0.9\n", encoding="utf-8")
     elif name == "text.csv":
         path.write_text("impact_time_ms\n500\nabc\n900\n", encoding="utf-8")
-    elif name in ("log_given_as_sound.csv", "jittered_log_given_as_sound.csv"):  # sample times are not impacts
-        times = np.arange(0.0, 2.0, 0.01)  # (they read e = 1); jittered, half their ratios fall below 1
+    elif name in ("log_given_as_sound.csv", "jittered_log_given_as_sound.csv", "exact_log_given_as_sound.csv"):
+        # sample times are not impacts (they read e = 1); jittered, half their ratios fall below 1; spaced
+        # exactly alike, their intervals' logarithm falls by its rounding only, which passed the 3 se test
+        times = np.arange(100) / 100 if name.startswith("exact") else np.arange(0.0, 2.0, 0.01)
         if name.startswith("jittered"):
             times = times + np.random.default_rng(3).normal(0.0, 1e-3, times.size)
         samples = truth.sample(times)
@@ -418,7 +420,8 @@ def write_bad(tmp_path, name, truth):
     ("empty.wav", "empty"), ("damaged.wav", "cannot be read as sound"), ("silence.wav", "impacts heard"),
     ("one_click.wav", "at least three"), ("unsorted.csv", "do not increase"), ("two.csv", "at least three"),
     ("text.csv", "not a number"), ("log_given_as_sound.csv", "not a bouncing ball's impacts"),
-    ("jittered_log_given_as_sound.csv", "not a bouncing ball's impacts"), ("damaged.zip", "not a phyphox"),
+    ("jittered_log_given_as_sound.csv", "not a bouncing ball's impacts"),
+    ("exact_log_given_as_sound.csv", "not a bouncing ball's impacts"), ("damaged.zip", "not a phyphox"),
     ("accelerometer.zip", "not a phyphox"),
 ])
 def test_bad_sound_input_is_one_line(tmp_path, truth, name, words):

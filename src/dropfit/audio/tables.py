@@ -37,6 +37,9 @@ ZIP_SUFFIX = ".zip"
 DEFAULT_TABLE_SE_S = 1.0e-3
 _PHYPHOX = re.compile(r"^\s*bounce\s+(\d+)\s*\(s\)\s*$", re.IGNORECASE)
 _UNITS = {"impact_time_s": 1.0, "impact_time_ms": 1e-3}
+#: The least fall of the logarithm of the intervals per impact a bouncing ball shows (e < 0.999): sample times
+#: spaced exactly alike fall or rise by their rounding, ~1e-17, and passed the 3 se test at random.
+MIN_SHRINK_PER_IMPACT = 1e-3
 #: Names (without their unit) of a column of impact times in a table given as one.
 IMPACT_TIME_NAMES = {"impact time", "impact times", "impact", "time of impact", "touchdown", "touchdown time",
                      "bounce time", "time", "t"}
@@ -159,14 +162,15 @@ def read_impact_table(path, columns=None):
 
 def _intervals_shrink(intervals):
     """Whether ``intervals`` (s) shrink as a bouncing ball's do: the slope of their logarithm against the impact
-    number (ln e, per impact) below 0 by 3 of its standard errors; fewer than three intervals pass."""
+    number (ln e, per impact) below 0 by 3 of its standard errors and by :data:`MIN_SHRINK_PER_IMPACT`; fewer
+    than three intervals pass."""
     if intervals.size < 3:
         return True
     number = np.arange(intervals.size)
     slope, intercept = np.polyfit(number, np.log(intervals), 1)
     residuals = np.log(intervals) - (slope * number + intercept)
     slope_se = np.sqrt(np.sum(residuals ** 2) / (intervals.size - 2) / np.sum((number - number.mean()) ** 2))
-    return slope < -3 * slope_se
+    return slope < -3 * slope_se and slope < -MIN_SHRINK_PER_IMPACT
 
 
 def _time_column(path, headers, columns=None):
