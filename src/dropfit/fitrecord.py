@@ -104,13 +104,12 @@ def fit_summary(summary, impacts, settings=None, ball_type=None):
     from_first = bool(heard) and not np.isfinite(fall_time) and touchdowns.size > 1
     # touchdowns heard are a contact and a flight apart: the contacts before the last (the kind's prior,
     # one systematic error for all)
-    contacts = impacts["t_contact_ms"].to_numpy(dtype=float)[:-1] if heard else np.zeros(0)
-    contacts_se = impacts["t_contact_se_ms"].to_numpy(dtype=float)[:-1] if heard else np.zeros(0)
+    on_floor = tuple(1e-3 * float(np.nansum(impacts[column].to_numpy(dtype=float)[:-1]))
+                     for column in ("t_contact_ms", "t_contact_se_ms")) if heard else (0.0, 0.0)
     theory = theory_checks(constant["value"], constant["se"], summary["drop_height_m"], fall_time,
                            impacts["h_after_m"].to_numpy(), impacts["h_after_se_m"].to_numpy(),
                            summary["rest_time_s"] - (touchdowns[0] if from_first else summary["drop_apex_time_s"]),
-                           heard, impacts["flight_time_after_s"].iloc[0] if from_first else None,
-                           (1e-3 * float(np.nansum(contacts)), 1e-3 * float(np.nansum(contacts_se))))
+                           heard, impacts["flight_time_after_s"].iloc[0] if from_first else None, on_floor)
     if summary.get("horizontal"):  # a 2-D recording: the distance travelled while bouncing, u t∞
         theory["horizontal_distance"] = distance_check(summary["horizontal"], theory["total_bouncing_time"])
     if summary.get("bouncing_time_note"):  # a sound recording's bouncing time ends otherwise

@@ -441,23 +441,28 @@ def nominal_drag_of(attrs):
     radius, mass = attrs.get("ball_radius_m"), attrs.get("ball_mass_kg")
     kind = ball_kind(attrs.get("ball_type"))
     relative_se = kind.drag_coefficient_se / kind.drag_coefficient
-    if not (radius and mass):
-        regulation = kind.regulation
-        if regulation is None:
-            return 0.0, 0.0
-        # only what is not given is the rules' (its spread into k's se)
+    regulation = _standing_in(attrs)
+    if regulation is not None:  # only what is not given is the rules' (its spread into k's se)
         spread = regulation.area_per_mass_relative_se(radius_given=bool(radius), mass_given=bool(mass))
         return (float(drag_parameter(kind.drag_coefficient, radius or regulation.radius_m,
                                      mass or regulation.mass_middle_kg)), math.hypot(relative_se, spread))
+    if not (radius and mass):
+        return 0.0, 0.0
     return float(drag_parameter(kind.drag_coefficient, radius, mass)), relative_se
+
+
+def _standing_in(attrs):
+    """The ball kind's :class:`dropfit.balls.Regulation` when it stands in for a size or mass not given, else None."""
+    from .balls import ball_kind
+
+    given = attrs.get("ball_radius_m") and attrs.get("ball_mass_kg")
+    return None if given else ball_kind(attrs.get("ball_type")).regulation
 
 
 def regulation_note(attrs):
     """What :func:`nominal_drag_of` took for a ball whose size or mass is not given, or None."""
-    from .balls import ball_kind
-
-    regulation = ball_kind(attrs.get("ball_type")).regulation
-    if (attrs.get("ball_radius_m") and attrs.get("ball_mass_kg")) or regulation is None:
+    regulation = _standing_in(attrs)
+    if regulation is None:
         return None
     return (f"the ball's size or mass is not given: its drag is that of a {attrs.get('ball_type')} ball as its rules "
             f"allow ({100 * regulation.diameter_m[0]:g}-{100 * regulation.diameter_m[1]:g} cm, "

@@ -7,6 +7,7 @@ and a video's contact sheet, drawn on its frames by :mod:`dropfit.video.overlay`
 from __future__ import annotations
 
 import base64
+import functools
 import io
 import math
 import os
@@ -360,14 +361,6 @@ def recording_name(fit, trajectory):
 
 # --- figure -------------------------------------------------------------------------------------
 
-def _unmanaged_figure(**options):
-    """A figure drawn on its own Agg canvas, outside pyplot's bookkeeping (a figure manager per figure, which
-    a batch making one report figure per recording pays for each time)."""
-    fig = matplotlib.figure.Figure(**options)
-    FigureCanvasAgg(fig)
-    return fig
-
-
 def _png_bytes(fig):
     """The figure as PNG bytes (110 dpi); the figure is closed."""
     buffer = io.BytesIO()
@@ -472,25 +465,25 @@ def _draw_speed_panel(ax_e, fit, impacts):
     ax_e.legend(loc="best", fontsize=8)
 
 
-#: The report figure of a log and its four axes, made once per process (:func:`_report_figure_axes`).
-_REPORT_FIGURE = []
+@functools.cache
+def _report_figure():
+    """The four-panel report figure and its axes (trajectory, residuals, e, heights), made once per process
+    and drawn again for each recording, so that a batch does not build the axes and their ticks anew for
+    every log (0.1 of 0.25 CPU-s a figure); on its own Agg canvas, outside pyplot's bookkeeping."""
+    fig = matplotlib.figure.Figure(figsize=(11, 11))
+    FigureCanvasAgg(fig)
+    # fixed margins, not a layout engine: the constrained layout measured every label of the four panels
+    # again for each recording, a fifth of a batch's time per log
+    grid = fig.add_gridspec(3, 2, height_ratios=[2.2, 1, 2], left=0.075, right=0.985, bottom=0.05, top=0.945,
+                            hspace=0.3, wspace=0.22)
+    ax_traj = fig.add_subplot(grid[0, :])
+    return fig, (ax_traj, fig.add_subplot(grid[1, :], sharex=ax_traj), fig.add_subplot(grid[2, 0]),
+                 fig.add_subplot(grid[2, 1]))
 
 
 def _report_figure_axes():
-    """The four-panel report figure and its axes (trajectory, residuals, e, heights), emptied of the last
-    recording's artists: made once per process and drawn again for each recording, so that a batch does
-    not build the axes and their ticks anew for every log (0.1 of 0.25 CPU-s a figure)."""
-    if not _REPORT_FIGURE:
-        # fixed margins, not a layout engine: the constrained layout measured every label of the four panels
-        # again for each recording, a fifth of a batch's time per log
-        fig = _unmanaged_figure(figsize=(11, 11))
-        grid = fig.add_gridspec(3, 2, height_ratios=[2.2, 1, 2], left=0.075, right=0.985, bottom=0.05, top=0.945,
-                                hspace=0.3, wspace=0.22)
-        ax_traj = fig.add_subplot(grid[0, :])
-        _REPORT_FIGURE.extend([fig, (ax_traj, fig.add_subplot(grid[1, :], sharex=ax_traj),
-                                     fig.add_subplot(grid[2, 0]), fig.add_subplot(grid[2, 1]))])
-        return _REPORT_FIGURE
-    fig, axes = _REPORT_FIGURE
+    """:func:`_report_figure`, emptied of the last recording's artists, legends and data limits."""
+    fig, axes = _report_figure()
     for ax in axes:
         for artist in [*ax.lines, *ax.collections, *ax.patches, *ax.texts]:
             artist.remove()
@@ -500,7 +493,7 @@ def _report_figure_axes():
         ax.dataLim = matplotlib.transforms.Bbox.null()  # the next recording's data set the limits afresh (as
         ax.ignore_existing_data_limits = True  # Axes.clear does: a log axis keeps its smallest positive value)
         ax.set_autoscale_on(True)
-    return _REPORT_FIGURE
+    return fig, axes
 
 
 @plt.rc_context({"axes.titley": 1.0})  # titles at a set height: not placed above each axis's ticks at every draw

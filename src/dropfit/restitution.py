@@ -134,9 +134,9 @@ def theory_checks(e, e_se, drop_height_m, fall_time_s, measured_heights_m, measu
         The measured time ends at this touchdown (the last impact heard in a sound): it is checked
         against the partial sum to that touchdown, not against t∞, which counts every later one.
     first_flight_s : float, optional
-        With ``impacts_counted`` and no release (``fall_time_s`` NaN): the first flight's time (lift-off
-        to touchdown), s; the measured time then runs from the first touchdown and is checked against
-        T₁ Σ eᵏ plus the contact times.
+        With ``impacts_counted``, given when the release is not known: the first flight's time (lift-off to
+        touchdown), s; the measured time then runs from the first touchdown and is checked against T₁ Σ eᵏ
+        plus the contact times.
     contact_time_s : (float, float)
         With ``impacts_counted``: the time the ball spends on the floor at the impacts before the last
         counted one, and its standard error, s (touchdowns are a contact and a flight apart).
@@ -160,17 +160,16 @@ def theory_checks(e, e_se, drop_height_m, fall_time_s, measured_heights_m, measu
              "fall_time_s": float(fall_time_s),
              "note": "the measured time ends when the ball stays within 5 noise standard deviations of the floor; "
                      "bounces lower than that are not seen, and drag shortens every flight"}
-    on_floor, on_floor_se = contact_time_s
-    if impacts_counted and first_flight_s is not None and not np.isfinite(fall_time_s):
-        t_last, slope = time_after_first_touchdown(e, first_flight_s, impacts_counted)
-        t_all, slope_all = time_after_first_touchdown(e, first_flight_s, np.inf)
-        total.update(predicted_to_last_impact=estimate(t_last + on_floor, math.hypot(slope * e_se, on_floor_se), "s"),
-                     impacts_counted=int(impacts_counted), from_first_impact=True,
-                     predicted_after_first_impact=estimate(t_all, abs(slope_all) * e_se, "s"))
-    elif impacts_counted:
-        t_last, slope = touchdown_time(e, fall_time_s, impacts_counted)
+    if impacts_counted:
+        from_first = first_flight_s is not None
+        t_last, slope = (time_after_first_touchdown(e, first_flight_s, impacts_counted) if from_first
+                         else touchdown_time(e, fall_time_s, impacts_counted))
+        on_floor, on_floor_se = contact_time_s
         total.update(predicted_to_last_impact=estimate(t_last + on_floor, math.hypot(slope * e_se, on_floor_se), "s"),
                      impacts_counted=int(impacts_counted))
+        if from_first:
+            t_all, slope_all = time_after_first_touchdown(e, first_flight_s, np.inf)
+            total.update(from_first_impact=True, predicted_after_first_impact=estimate(t_all, slope_all * e_se, "s"))
     return {
         "heights": [
             {"bounce": i + 1, "measured_m": float(h), "measured_se_m": float(s), "predicted_m": float(p),

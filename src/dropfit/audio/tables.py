@@ -25,7 +25,8 @@ import pandas as pd
 from ..errors import InputError, shown, shown_path
 from ..importers.base import TIME_UNITS_S, quoted
 from ..importers.sensors import phyphox_sets
-from ..importers.table import parse_column, parse_mapping
+from ..importers.table import named_column, parse_column, parse_mapping
+from ..numerics import linear_fit
 
 #: Suffixes a table of impact times may have.
 TABLE_SUFFIXES = (".csv", ".tsv", ".txt")
@@ -166,11 +167,9 @@ def _intervals_shrink(intervals):
     than three intervals pass."""
     if intervals.size < 3:
         return True
-    number = np.arange(intervals.size)
-    slope, intercept = np.polyfit(number, np.log(intervals), 1)
-    residuals = np.log(intervals) - (slope * number + intercept)
-    slope_se = np.sqrt(np.sum(residuals ** 2) / (intervals.size - 2) / np.sum((number - number.mean()) ** 2))
-    return slope < -3 * slope_se and slope < -MIN_SHRINK_PER_IMPACT
+    (_, slope), covariance = linear_fit(np.column_stack([np.ones(intervals.size), np.arange(intervals.size)]),
+                                        np.log(intervals))
+    return slope < -3 * np.sqrt(covariance[1, 1]) and slope < -MIN_SHRINK_PER_IMPACT
 
 
 def _time_column(path, headers, columns=None):
@@ -187,11 +186,7 @@ def _time_column(path, headers, columns=None):
             raise InputError(f"{name}: --columns '{shown(columns)}' names no time column; give the impact times' "
                              f"column as time=COL[ms]")
         wanted, unit = mapping["time"]
-        header = next((header for header, column in parsed.items()
-                       if wanted.lower() in (header.lower(), column.name)), None)
-        if header is None:
-            raise InputError(f"{name}: --columns names '{shown(wanted, 30)}' for the impact times, but the columns "
-                             f"are {quoted(headers)}")
+        header = headers[named_column(path, [parsed[header] for header in headers], wanted, "time")]
         unit = unit or parsed[header].unit
         if unit not in TIME_UNITS_S:
             what = f"is {unit}, not a unit of time" if unit else "is not known"

@@ -257,15 +257,16 @@ def parse_mapping(path, text):
     return mapping
 
 
-def _named_column(table, columns, name, role):
-    """Index of the column ``name`` (its header as written, its name without unit, or its 1-based number)."""
+def named_column(path, columns, name, role):
+    """Index of the column ``name`` among ``columns`` (:class:`Column`): its header as written, its name without
+    unit, or its 1-based number; InputError naming ``path``, the ``role`` and the columns when none is."""
     for index, column in enumerate(columns):
         if name in (column.header, column.name) or name.lower() in (column.header.lower(), column.name):
             return index
     if name.isdigit() and 1 <= int(name) <= len(columns):
         return int(name) - 1
-    raise InputError(f"{shown_path(table.path)}: --columns names '{shown(name, 30)}' for the {ROLE_WORDS[role]}, "
-                     f"but the columns are {quoted(table.header)}")
+    raise InputError(f"{shown_path(path)}: --columns names '{shown(name, 30)}' for the {ROLE_WORDS[role]}, "
+                     f"but the columns are {quoted(column.header for column in columns)}")
 
 
 def choose_columns(table, columns, mapping=None, run=None):
@@ -279,7 +280,7 @@ def choose_columns(table, columns, mapping=None, run=None):
             missing = "time (time=COL[s])" if not {"time", "frame"} & mapping.keys() else "height (y=COL[m])"
             raise InputError(f"{name}: --columns names no {missing} column; a height log needs both (a table of "
                              f"impact times heard in a sound is read with --kind audio)")
-        return {role: _named_column(table, columns, column, role) for role, (column, _) in mapping.items()}
+        return {role: named_column(table.path, columns, column, role) for role, (column, _) in mapping.items()}
     chosen = {}
     for role in ROLE_NAMES:
         candidates = [i for i, column in enumerate(columns) if column.role == role and (run is None or column.run == run)]
