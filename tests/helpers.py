@@ -380,6 +380,73 @@ def tracker_point_mass(trz_path):
         "delta_t_s": project.frame_interval_s}
 
 
+#: Gravity where Tracker's ball toss was filmed (Aptos, California, 37° N, near sea level), m/s².
+BALL_TOSS_G_M_S2 = 9.80
+
+
+def grey_frames(path):
+    """Every frame of a video as grey levels (float32 arrays), decoded with PyAV."""
+    import av
+
+    with av.open(str(path)) as container:
+        return [frame.to_ndarray(format="gray").astype(np.float32) for frame in container.decode(video=0)]
+
+
+def excerpt_frames_in_clip(trz_path, clip_frames):
+    """The clip frame each frame of a Tracker project's own video (the excerpt in its ``.trz``) matches best.
+
+    Returns
+    -------
+    numpy.ndarray
+        For each excerpt frame, the index into ``clip_frames`` with the least mean absolute difference.
+    """
+    import tempfile
+    import zipfile
+
+    with zipfile.ZipFile(trz_path) as archive, tempfile.TemporaryDirectory() as directory:
+        name = next(n for n in archive.namelist() if n.endswith(".mp4"))
+        excerpt = pathlib.Path(directory) / "excerpt.mp4"
+        excerpt.write_bytes(archive.read(name))
+        excerpt_frames = grey_frames(excerpt)
+    return np.array([int(np.argmin([np.abs(frame - c).mean() for c in clip_frames])) for frame in excerpt_frames])
+
+
+def depth_motion_fit(time_s, x, y):
+    """g of a free flight seen by a camera the ball moves towards or away from at a steady speed.
+
+    The image of a point at depth Z₀(1 + c·t) shrinks by 1/(1 + c·t) about the principal point, so in the
+    plane's units the path is x = (x₀ + vₓt)/(1 + ct), y = (y₀ + v_y t − g t²/2)/(1 + ct), y up (the principal
+    point is absorbed in x₀, vₓ, y₀, v_y). A parabola fitted to such a path gets a horizontal acceleration
+    and a g off by the depth's change; this model does not. Its g is at the scale of t = 0: at time t it is
+    g / (1 + c·t).
+
+    Parameters
+    ----------
+    time_s, x, y : numpy.ndarray
+        Times in s and positions in the plane's length unit (m), y up.
+
+    Returns
+    -------
+    dict
+        ``g`` and ``g_se`` (unit/s², se scaled by the residuals), ``c`` and ``c_se`` (1/s), ``rms`` (unit).
+    """
+    from scipy.optimize import curve_fit
+
+    count = len(time_s)
+
+    def path(stacked_t, x0, vx, y0, vy, g, c):
+        t = stacked_t[:count]
+        shrink = 1 + c * t
+        return np.concatenate([(x0 + vx * t) / shrink, (y0 + vy * t - 0.5 * g * t ** 2) / shrink])
+
+    stacked_t, observed = np.concatenate([time_s, time_s]), np.concatenate([x, y])
+    start = [x[0], 0.0, y[0], 0.0, 9.8, 0.0]
+    values, cov = curve_fit(path, stacked_t, observed, p0=start)
+    residual = observed - path(stacked_t, *values)
+    return {"g": values[4], "g_se": float(np.sqrt(cov[4, 4])), "c": values[5], "c_se": float(np.sqrt(cov[5, 5])),
+            "rms": float(np.sqrt(np.mean(residual ** 2)))}
+
+
 def phone_clip(preset, directory, seed=0, downscale=0.5, **changes):
     """Render a phonesim preset (with ``changes`` to its :class:`phonesim.ClipConfig`) into ``directory``.
 

@@ -5,32 +5,10 @@ project holds 11 hand-marked ball positions (every other frame of a 13-frame exc
 the stick's calibration; they are the truth the automatic track is held to.
 """
 
-import av
 import numpy as np
 
 from dropfit.video.track import track_video, usable_rows
-from helpers import real_recording, tracker_point_mass
-
-
-def _grey_frames(path):
-    with av.open(str(path)) as container:
-        return [frame.to_ndarray(format="gray").astype(np.float32) for frame in container.decode(video=0)]
-
-
-def _marked_frames_in_clip(trz_path, clip_frames):
-    """The clip's frame index of each frame of the project's excerpt: the clip frame it matches best."""
-    import zipfile
-
-    import tempfile
-    from pathlib import Path
-
-    with zipfile.ZipFile(trz_path) as archive, tempfile.TemporaryDirectory() as directory:
-        name = next(n for n in archive.namelist() if n.endswith(".mp4"))
-        excerpt = Path(directory) / "excerpt.mp4"
-        excerpt.write_bytes(archive.read(name))
-        excerpt_frames = _grey_frames(excerpt)
-    return np.array([int(np.argmin([np.abs(frame - c).mean() for c in clip_frames])) for frame in excerpt_frames])
-
+from helpers import excerpt_frames_in_clip, grey_frames, real_recording, tracker_point_mass
 
 def _track_at_the_marks():
     """The automatic track at the hand-marked frames: (which marks are usable rows, their distance to the
@@ -38,7 +16,7 @@ def _track_at_the_marks():
     clip = real_recording("tracker-balltoss", "BallTossOut.mp4")
     trz = real_recording("tracker-balltoss", "BallToss.trz")
     marks, _ = tracker_point_mass(trz)
-    in_clip = _marked_frames_in_clip(trz, _grey_frames(clip))
+    in_clip = excerpt_frames_in_clip(trz, grey_frames(clip))
     assert np.all(np.diff(in_clip) == 2)  # the excerpt is every other frame of the clip
     # the hand marks' own scatter: their residual about a parabola in time (the toss is ballistic)
     steps = marks[:, 0]
@@ -63,4 +41,5 @@ def test_ball_toss_track_agrees_with_the_hand_marks():
     assert np.all(distance[usable] <= 2.0), distance  # the ball, not a hand (tens of px away)
     # the hand marks scatter by ~1.1 px (a click on a ball ~10 px across); the tracked centre is within that
     assert np.sqrt(np.mean(distance[usable] ** 2)) <= 1.5 * marks_scatter_px, (distance, marks_scatter_px)
+
 

@@ -225,7 +225,8 @@ OPTIONS = {option.name: option for option in (
            _MEASURE, choices=("centre", "bottom", "top"), text=True, column=True),
     Option("format", f"the recording's format (default: found from its content): {', '.join(FORMATS)}", _MEASURE,
            choices=tuple(FORMATS), text=True, column=True),
-    Option("fps", "frame rate in frames/s of a table that counts frames (MTrack2, TrackMate without times)",
+    Option("fps", "frame rate in frames/s of a table that counts frames (MTrack2, TrackMate without times), or the "
+           "camera's rate in place of a Tracker project's frame step",
            _MEASURE, "the frame rate in frames/s", 0.0, math.inf, False, column=True),
     Option("track_id", "which track (MTrack2 track number, TrackMate TRACK_ID, Tracker point mass) or run (Logger Pro, "
            "Capstone) to read; default: the one that moves like a dropped ball", _MEASURE,
@@ -375,7 +376,8 @@ class Settings:
     format : str, optional
         The recording's format (:data:`dropfit.importers.FORMATS`). Default None: found from the content.
     fps : float, optional
-        Frame rate in frames/s of a table that counts frames (MTrack2, TrackMate). Default None.
+        Frame rate in frames/s of a table that counts frames (MTrack2, TrackMate), or the camera's rate in
+        place of a Tracker project's frame step. Default None.
     track_id : float, optional
         The track (MTrack2, TrackMate, Tracker) or run (Logger Pro, Capstone) to read, a whole number.
         Default None: the one that moves like a dropped ball (a single run).

@@ -194,10 +194,11 @@ def read_project(path, raw, options):
     number = pick_track(path, {k: (m.frames, m.x_px, m.y_px) for k, m in masses.items()}, options.track_id,
                         "point mass")
     mass = masses[number]
-    if project.frame_interval_s is None:
-        if not options.fps:
-            raise InputError(f"{name}: the Tracker project gives no frame timing (delta_t); give the frame rate with "
-                             f"--fps")
+    if project.frame_interval_s is None and not options.fps:
+        raise InputError(f"{name}: the Tracker project gives no frame timing (delta_t); give the frame rate with "
+                         f"--fps")
+    timing = _timing_words(project.frame_interval_s, options.fps)
+    if options.fps:
         project.frame_interval_s = 1.0 / options.fps
     time = project.times_s(mass.frames)
     _, _, angle, x_scale, y_scale = project.frame_coords(mass.frames)
@@ -215,10 +216,45 @@ def read_project(path, raw, options):
     else:
         x, y, unit, calibration, what = mass.x_px, mass.y_px, "px", {}, "image px (no calibration in the project)"
     mapping = describe(path, [f"point mass '{mass.name}' ({mass.frames.size} marks)", what,
-                              f"frames {project.frame_interval_s * 1000:g} ms apart"])
+                              timing])
     track = ImportedTrack(time, y, unit, "tracker", mapping, x, 1.0 / project.frame_interval_s,
                           {f"tracker_{key}": value for key, value in calibration.items()})
     return track
+
+
+def _timing_words(delta_t_s, fps):
+    """How the frame step was taken: the project's ``delta_t``, or ``fps`` given (the camera's rate wins).
+
+    A step stated to the whole ms that is no whole frame rate (66 ms is 15.15 fps) was rounded or cut:
+    Tracker stores the step of a whole rate exactly (66.667 ms for 15 fps). A step 1 % short reads g, and a
+    scale from gravity, 2 % high, so the words name the whole rate the step most likely stands for.
+    """
+    if fps:
+        stated = f"; the project says {delta_t_s * 1000:.6g} ms" if delta_t_s else ""
+        return f"frames {1000 / fps:.6g} ms apart (--fps {fps:g}{stated})"
+    step_ms = delta_t_s * 1000
+    words = f"frames {step_ms:.6g} ms apart (Tracker's delta_t)"
+    rate = _whole_rate_cut_to(step_ms)
+    if rate is not None:
+        words += (f"; a step given to the whole ms, {1000 / step_ms:.4g} fps: if the camera ran at {rate} fps "
+                  f"({1000 / rate:.5g} ms), give --fps {rate}")
+    return words
+
+
+def _whole_rate_cut_to(step_ms):
+    """The whole frame rate (fps) whose step rounds or truncates to ``step_ms``, a whole number of ms that no
+    whole rate has exactly; a multiple of 5 fps first (cameras' rates), else the nearest. None otherwise, and
+    for steps under 10 ms, where many rates share a whole ms."""
+    if abs(step_ms - round(step_ms)) > 1e-9 or step_ms < 10:
+        return None
+    step = round(step_ms)
+    if abs(1000 / step - round(1000 / step)) < 1e-9:
+        return None
+    rates = [rate for rate in range(math.floor(1000 / (step + 1)), math.ceil(1000 / (step - 1)) + 1)
+             if rate > 0 and step in (math.floor(1000 / rate), round(1000 / rate))]
+    if not rates:
+        return None
+    return min(rates, key=lambda rate: (rate % 5 != 0, abs(1000 / rate - step_ms)))
 
 
 def read_data_table(table, options):
