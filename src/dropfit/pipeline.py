@@ -271,7 +271,8 @@ def analyse_trajectory(trajectory, settings=None, source=None):
             raise
         raise InputError(video_limits.analysis_refusal(str(error), trajectory)) from None
     if "video" in attrs:  # a video's later bounces may be too briefly filmed to resolve
-        analysis = video_limits.select_resolved_impacts(analysis, attrs["video"], interval)
+        analysis = video_limits.select_resolved_impacts(analysis, attrs["video"], interval,
+                                                        attrs.get("frames_unclean"))
         if not analysis.impacts["in_fit"].any():  # every e unphysical: the tracking, not the ball, is the cause
             first = analysis.impacts[np.isfinite(analysis.impacts["e"])].iloc[0]  # (a resolved impact has an e)
             reason = str(first["note"]).split(";")[0]

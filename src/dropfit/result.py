@@ -245,8 +245,9 @@ def _notes(fit, summary, attrs):
     if attrs.get("n_dropouts"):
         notes.append(f"{attrs['n_dropouts']} samples are dropouts (no height): left out")
     if "frames" in attrs and "frames_usable" in attrs and attrs["frames"] > attrs["frames_usable"]:
+        why = f": {attrs['frames_unclean']}" if attrs.get("frames_unclean") else " (see the tracking flags)"
         notes.append(f"{attrs['frames'] - attrs['frames_usable']} of {attrs['frames']} video frames not measured "
-                     f"cleanly enough to use (see the tracking flags)")
+                     f"cleanly enough to use{why}")
     notes += [str(note) for note in summary.get("notes") or []]
     notes += [str(note) for note in summary.get("impacts_dropped") or []]
     restitution = fit["restitution"]

@@ -207,6 +207,8 @@ def trajectory_from_video(path, ball_radius_m=None, scale_m_per_px=None, capture
     radius_px = table["radius_px"].to_numpy()[usable]
     extra = dict(attrs or {})
     extra.update(video=str(path), frames=int(len(table)), frames_usable=int(np.count_nonzero(usable)))
+    if not usable.all():
+        extra["frames_unclean"] = video_limits.unclean_frames(table)
     # the ruler, the targets (in colour) and the floor are read from the background the ball was tracked against
     scene = background.image() if background is not None else None
     background = background.grey if background is not None else None

@@ -521,6 +521,10 @@ def measure_ball(grey, background, threshold_grey, centre_guess, radius_ref_px=N
     min_area = max(math.pi * MIN_RADIUS_PX ** 2, 0.2 * math.pi * radius_ref_px ** 2 if radius_ref_px else 0.0)
     gx, gy = centre_guess
     candidates = np.flatnonzero(areas >= min_area) + 1
+    if shaded_radius_px is not None:
+        # the clip's ball is lighter than the scene on its lit side: a blob with no lighter part is a shadow
+        lit_pixels = np.bincount(labels[diff > threshold_grey], minlength=count)
+        candidates = candidates[lit_pixels[candidates] >= math.pi * MIN_RADIUS_PX ** 2]
     if candidates.size == 0:
         return None
     ix, iy = int(round(gx)), int(round(gy))
@@ -714,7 +718,8 @@ class SearchedFrame(NamedTuple):
                 radius = math.sqrt(np.count_nonzero(lit) / math.pi) * scale
                 if radius >= MIN_RADIUS_PX:
                     blobs.append(((left + x0 + xs.mean() + 0.5) * scale - 0.5,
-                                  (top + y0 + ys.mean() + 0.5) * scale - 0.5, expected_radius_px or radius, False))
+                                  (top + y0 + ys.mean() + 0.5) * scale - 0.5, expected_radius_px or radius, False,
+                                  True))
                 continue
             blob = cv2.copyMakeBorder(in_box.astype(np.uint8), 1, 1, 1, 1,
                                       cv2.BORDER_CONSTANT, value=0)  # (np.pad costs 20 times more)
@@ -728,7 +733,7 @@ class SearchedFrame(NamedTuple):
                 continue
             lone = bool(area <= MAX_FILL_RATIO * math.pi * r_in ** 2 + 2 * math.pi * r_in)
             blobs.append(((left + x0 + ix - 1 + 0.5) * scale - 0.5, (top + y0 + iy - 1 + 0.5) * scale - 0.5,
-                          radius, lone))
+                          radius, lone, False))
         return blobs
 
 
@@ -764,10 +769,12 @@ def find_blobs(frame, background, contrast, expected_radius_px=None, gain=1.0):
 
     Returns
     -------
-    list of (float, float, float, bool)
+    list of (float, float, float, bool, bool)
         Per blob (the 50 largest), the centre x, y and radius of its largest inscribed circle, px
-        (approximate: searched at a reduced size, :func:`searched_frame`), and whether it is a lone disc
-        (no more area than ``MAX_FILL_RATIO`` times the circle's plus a perimeter's worth).
+        (approximate: searched at a reduced size, :func:`searched_frame`), whether it is a lone disc
+        (no more area than ``MAX_FILL_RATIO`` times the circle's plus a perimeter's worth), and whether it
+        is a light ball merged with its shadow (then x, y and the radius are its lighter part's, and it is
+        not a lone disc).
     """
     return searched_frame(frame, background, expected_radius_px).blobs(contrast, gain)
 
@@ -786,9 +793,10 @@ def off_fixtures(blobs, fixtures):
             if not any(math.hypot(blob[0] - x, blob[1] - y) <= max(r, blob[2]) for x, y, r in fixtures)]
 
 
-def find_ball(frame, background, contrast, expected_radius_px=None, gain=1.0, fixtures=(), colour_bgr=None):
-    """Search a whole frame for the ball: of :func:`find_blobs`, a lone disc before a merged blob, then
-    the radius nearest the expected one (without one, the largest).
+def find_balls(frame, background, contrast, expected_radius_px=None, gain=1.0, fixtures=(), colour_bgr=None):
+    """Search a whole frame for the ball: the blobs of :func:`find_blobs` that may be it, best first: lone
+    discs and light balls merged with their shadows before other merged blobs, then the radius nearest the
+    expected one (without one, the largest: a speck of a hand's fringe is a lone disc too).
 
     ``fixtures`` are blobs that stay in one place in the whole clip (x, y, radius in px): blobs
     centred within a radius of one are not the ball. With the ball's colour ``colour_bgr`` (BGR
@@ -797,14 +805,13 @@ def find_ball(frame, background, contrast, expected_radius_px=None, gain=1.0, fi
 
     Returns
     -------
-    (float, float, float, bool) or None
-        As one blob of :func:`find_blobs`; None when there is none.
+    list of (float, float, float, bool, bool)
+        Blobs as :func:`find_blobs` gives them, best first; empty when there is none.
     """
     blobs = off_fixtures(find_blobs(frame, background, contrast, expected_radius_px, gain), fixtures)
     if colour_bgr is not None and frame.ndim == 3:
         wanted = chromaticity(colour_bgr)
         blobs = [blob for blob in blobs
                  if np.linalg.norm(chromaticity(_centre_colour(frame, blob)) - wanted) <= MAX_CHROMATICITY_DISTANCE]
-    if not blobs:
-        return None
-    return max(blobs, key=lambda blob: (blob[3], -abs(blob[2] - expected_radius_px) if expected_radius_px else blob[2]))
+    return sorted(blobs, key=lambda blob: (blob[3] or blob[4], -abs(blob[2] - expected_radius_px)
+                                           if expected_radius_px else blob[2]), reverse=True)

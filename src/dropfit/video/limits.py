@@ -184,8 +184,8 @@ def not_free_fall(source, acceleration_m_s2, trajectory):
         return (f"{said}: a fall over that height lasts {fall_s / interval_s:.1f} frame intervals at "
                 f"{1.0 / interval_s:.3g} frames/s, fewer than the {MIN_FRAME_INTERVALS_PER_FLIGHT} a flight needs "
                 f"to be told from its impacts; film at {needed:g} frames/s or more (slow motion), or drop from higher")
-    return (f"{said} (the tracker lost the ball in its flights or followed something else, or the scale is wrong); "
-            f"{TRACKER_HELP}")
+    return (f"{said} (the tracker lost the ball in its flights or followed something else, or the scale is wrong"
+            f"{_unclean_words(trajectory)}); {TRACKER_HELP}")
 
 
 def _measured(trajectory):
@@ -217,8 +217,15 @@ def analysis_refusal(message, trajectory):
     measured, _, found = _measured(trajectory)
     if measured.size and measured.mean() >= WELL_TRACKED_FRACTION:
         return message
-    return (f"{message}: {found} (the tracker lost the ball in its flights or followed something else); "
-            f"{TRACKER_HELP}")
+    return (f"{message}: {found} (the tracker lost the ball in its flights or followed something else"
+            f"{_unclean_words(trajectory)}); {TRACKER_HELP}")
+
+
+def _unclean_words(trajectory):
+    """"; the frames not measured cleanly: …" (:func:`unclean_frames`, kept in the trajectory's attributes), or
+    nothing."""
+    unclean = trajectory.attrs.get("frames_unclean")
+    return f"; in the frames not measured cleanly {unclean}" if unclean else ""
 
 
 def unclean_frames(table):
@@ -296,7 +303,7 @@ def flight_spans(analysis, frame_interval_s):
     return (touchdown - starts) / frame_interval_s, (ends - liftoff) / frame_interval_s
 
 
-def select_resolved_impacts(analysis, source, frame_interval_s):
+def select_resolved_impacts(analysis, source, frame_interval_s, unclean=None):
     """Keep the impacts whose two flights are both sampled densely enough, from the first that is to the first
     after it that is not; the impacts before the first resolved one keep their rows with no e.
 
@@ -312,6 +319,9 @@ def select_resolved_impacts(analysis, source, frame_interval_s):
         The recording, named in the message.
     frame_interval_s : float
         Time between frames in s.
+    unclean : str, optional
+        What the frames not measured cleanly were (:func:`unclean_frames`), told when no impact is resolved
+        for want of clean frames.
 
     Returns
     -------
@@ -332,7 +342,8 @@ def select_resolved_impacts(analysis, source, frame_interval_s):
                for (_, row), before, after in zip(analysis.impacts.iterrows(), *spans)]
     first = next((i for i, reason in enumerate(reasons) if reason is None), None)
     if first is None:
-        raise InputError(f"{shown_path(source)}: not analysable: {reasons[0]}")
+        why = f" ({unclean})" if unclean and "clean frames" in reasons[0] else ""
+        raise InputError(f"{shown_path(source)}: not analysable: {reasons[0]}{why}")
     kept = next((i for i in range(first, len(reasons)) if reasons[i] is not None), len(reasons))
     n = len(reasons)
     pair = np.r_[0:kept, n: n + kept]  # e_1…e_kept and their contact times

@@ -3,7 +3,7 @@
 The camera is static, so the scene without the ball is one image, the background
 (:mod:`dropfit.video.background`). In the first frame, and whenever the ball was lost, the whole
 (downscaled) frame is searched for the foreground blob with the largest inscribed circle, preferring
-lone, roughly circular blobs (:func:`dropfit.video.detect.find_ball`). Afterwards the position is
+lone, roughly circular blobs (:func:`dropfit.video.detect.find_balls`). Afterwards the position is
 predicted from the last three positions (constant acceleration) and only a window of about four
 radii around the prediction is measured (:func:`dropfit.video.detect.measure_ball`, which gives the
 quality flags ``ok``, ``blurred``, ``partial``, ``shaded`` and ``occluded``). While the ball is measured merged
@@ -52,7 +52,7 @@ from .background import (BACKGROUND_SAMPLES, Background, background_without_ball
 from .contrast import (CHANNELS, CHROMA, GREY, Contrast, available_contrasts, contrast_of, frame_gain, hand_pixels,
                        scene_colour, skin_mask)
 from .decode import MIN_FRAMES, Progress, VideoFile, check_frame_count, check_video_file, frame_times, spread_indices
-from .detect import find_ball, measure_ball, searched_frame
+from .detect import find_balls, measure_ball, searched_frame
 from .link import extrapolated, find_flight
 from .opencv import cv2
 # the flags and the centre's correlation, kept importable from here (overlay, tests)
@@ -208,8 +208,13 @@ class BallTracker:
     @property
     def radius_ref_px(self):
         """The expected radius, px: the median of recent ``ok`` radii of barely blurred balls (before there is
-        one, the smallest recent ``ok`` radius), else the given one."""
-        return self._radius_ref if self._radii else self.expected_radius_px
+        one, the smallest recent ``ok`` radius); before any ``ok`` ball, the given one, else the median of the
+        radii fitted to shaded balls' lit sides (a light ball over a light wall may never be ``ok``)."""
+        if self._radii:
+            return self._radius_ref
+        if self.expected_radius_px is None and self._shaded_fits:
+            return float(np.median(self._shaded_fits))
+        return self.expected_radius_px
 
     @property
     def _shaded_radius_px(self):
@@ -298,11 +303,11 @@ class BallTracker:
             background = self.background.cropped(left, top, right, bottom)
         region = frame[top:bottom, left:right]
         fixtures = [(x - left, y - top, r) for x, y, r in self.contrast.fixtures]
-        found = find_ball(region, background, self.contrast, self.radius_ref_px, self._gain, fixtures,
-                          self.hints.ball_colour_bgr)
-        if found is None:
+        found = find_balls(region, background, self.contrast, self.radius_ref_px, self._gain, fixtures,
+                           self.hints.ball_colour_bgr)
+        if not found:
             return None
-        x, y, r = found[0] + left, found[1] + top, found[2]
+        x, y, r = found[0][0] + left, found[0][1] + top, found[0][2]
         result = self._measure_around(frame, (x, y), 2.0 * max(r, self.radius_ref_px or r) + WINDOW_MARGIN_PX)
         if result is not None and result.truncated:
             result = self._measure_around(frame, (result.x_px, result.y_px), 4.0 * r + 2 * WINDOW_MARGIN_PX)
@@ -466,7 +471,7 @@ def _fixtures(blobs):
     """Blobs found at one place (within ``FIXTURE_TOLERANCE_PX``) in at least ``FIXTURE_FRACTION`` of the samples."""
     flat = [blob for found in blobs for blob in found]
     fixtures = []
-    for x, y, radius, _ in flat:
+    for x, y, radius, *_ in flat:
         if any(math.hypot(x - fx, y - fy) <= FIXTURE_TOLERANCE_PX for fx, fy, _ in fixtures):
             continue
         seen = sum(any(math.hypot(x - bx, y - by) <= FIXTURE_TOLERANCE_PX for bx, by, *_ in found) for found in blobs)
