@@ -179,7 +179,7 @@ def _check_header(path, header, rows):
                          f"between the columns")
 
 
-def read_height_log(path, horizontal=False):
+def read_height_log(path, horizontal=False, exact_repeats=False):
     """Read and validate a height log.
 
     Parameters
@@ -188,6 +188,9 @@ def read_height_log(path, horizontal=False):
         The CSV file.
     horizontal : bool
         Also return the optional horizontal column (``x_m``, ``x_cm``, ``x_mm`` or ``x_px``).
+    exact_repeats : bool
+        Pass a row that repeats the previous one exactly (a row exported twice) for the caller to drop
+        (:func:`dropfit.importers.base.checked_track`, with a note); refused otherwise.
 
     Returns
     -------
@@ -242,8 +245,14 @@ def read_height_log(path, horizontal=False):
         row = int(np.flatnonzero(~np.isfinite(time))[0])
         raise InputError(f"{name}: time is missing or not finite in data row {row + 1}")
     steps = np.diff(time)
+    if exact_repeats:
+        repeated = np.all(table.values[1:] == table.values[:-1], axis=1)  # the cells' text, every column
+        steps = np.where(repeated, 1.0, steps)
     if np.any(steps <= 0):
         row = int(np.flatnonzero(steps <= 0)[0])
+        if steps[row] == 0 and not np.all(table.values[row + 1] == table.values[row]):
+            raise InputError(f"{name}: time {time[row]:g} s is given twice with different positions (data rows "
+                             f"{row + 1} and {row + 2}); remove the wrong row, or give the times with more decimals")
         raise InputError(f"{name}: time does not increase at data row {row + 2} "
                          f"({time[row]:g} s then {time[row + 1]:g} s); sort the log or remove repeated rows")
     if np.any(np.isinf(height)):

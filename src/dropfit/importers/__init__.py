@@ -135,7 +135,7 @@ def _is_native(lines):
 def _native(path):
     from ..heightlog import MAX_ABS_HEIGHT_M, read_height_log
 
-    time, height, unit, x, x_unit = read_height_log(path, horizontal=True)
+    time, height, unit, x, x_unit = read_height_log(path, horizontal=True, exact_repeats=True)
     if x is not None and x_unit != unit:
         if x_unit == "px":
             raise InputError(f"{shown_path(path)}: column x_px needs a scale, but the heights are not in px; give x in "
@@ -147,8 +147,8 @@ def _native(path):
             raise InputError(f"{shown_path(path)}: column x_{x_unit} reaches {farthest:.3g} m from its zero (more "
                              f"than {MAX_ABS_HEIGHT_M:g} m); check its unit in the column name, or subtract the offset")
         x = x * LENGTH_UNITS_M[x_unit] / LENGTH_UNITS_M[unit]
-    return ImportedTrack(time, height, unit, "dropfit", f"read {shown_path(path)} as a dropfit height log [{unit}]",
-                         x=x)
+    return _finished(path, ImportedTrack(time, height, unit, "dropfit",
+                                         f"read {shown_path(path)} as a dropfit height log [{unit}]", x=x))
 
 
 def _finished(path, track):
