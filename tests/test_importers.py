@@ -243,12 +243,13 @@ def ball_in_image(frames):
     return time, 100.0 + 20.0 * time, FLOOR_ROW_PX - PX_PER_M * height
 
 
-def mtrack2_table(separator="\t"):
-    """Three objects: a still speck (track 1), the ball (track 2, lost in two frames), a short-lived one (3)."""
+def mtrack2_table(separator="\t", header_end=""):
+    """Three objects: a still speck (track 1), the ball (track 2, lost in two frames), a short-lived one (3);
+    ``header_end`` ends the header line (MTrack2 may end it with a separator)."""
     frames = np.arange(1, 101)
     _, column, row = ball_in_image(frames)
     header = ["Frame"] + [f"{c}{k}" for k in (1, 2, 3) for c in ("X", "Y", "Flag")]
-    lines = ["Tracks 1 to 3", separator.join(header)]
+    lines = ["Tracks 1 to 3", separator.join(header) + header_end]
     for i, frame in enumerate(frames):
         cells = [str(frame), "12.0", "30.5", "0"]
         cells += ["", "", ""] if i in LOST_FRAMES else [f"{column[i]:.3f}", f"{row[i]:.3f}", "0"]
@@ -273,6 +274,41 @@ def test_mtrack2_picks_the_ball_and_times_frames(separator, tmp_path):
     np.testing.assert_allclose(track.x, column[kept], atol=6e-4)
     still = read_track(path, ImportOptions(fps=FPS, track_id=1))
     assert np.all(still.y == 30.5) and still.time_s.size == frames.size
+
+
+def test_mtrack2_header_ending_in_a_separator(tmp_path):
+    """MTrack2 may end its header with a tab the rows do not have: the empty column past the data is no column
+    (it was 'no table of numbers under a header found')."""
+    text, frames, _, row = mtrack2_table(header_end="\t")
+    path = tmp_path / "Results.txt"
+    path.write_text(text)
+    track = read_track(path, ImportOptions(fps=FPS))
+    kept = np.setdiff1d(np.arange(frames.size), LOST_FRAMES)
+    assert "track 2" in track.mapping
+    np.testing.assert_allclose(track.y, row[kept], atol=6e-4)
+
+
+@pytest.mark.parametrize("numbered", [True, False])
+def test_mtrack2_raw_tracks_window_saved_as_csv(numbered, tmp_path):
+    """ImageJ saves MTrack2's Raw Tracks window without a Frame column (' ,X1,Y1,Flag1,…' with its row numbers,
+    or 'X1,Y1,Flag1,…'), one row per frame: the row is the frame, --fps gives the times, e comes back (it was
+    'cannot tell which column is the time', and --format mtrack2 refused it)."""
+    text, frames, column, row = mtrack2_table(",")
+    lines = [line.split(",", 1)[1] if "," in line else "" for line in text.splitlines()[1:1 + 1 + frames.size]]
+    lines = [(" ," if numbered else "") + lines[0]] + [(f"{i + 1}," if numbered else "") + line
+                                                       for i, line in enumerate(lines[1:])]
+    path = tmp_path / "Raw Tracks.csv"
+    path.write_text("\n".join(lines) + "\n")
+    for options in ({}, {"format": "mtrack2"}):
+        track = read_track(path, ImportOptions(fps=FPS, **options))
+        assert track.source_format == "mtrack2" and "Raw Tracks" in track.mapping and "track 2" in track.mapping
+        kept = np.setdiff1d(np.arange(frames.size), LOST_FRAMES)
+        np.testing.assert_allclose(track.time_s, (frames[kept] - 1) / FPS, atol=1e-12)
+        np.testing.assert_allclose(track.y, row[kept], atol=6e-4)
+    assert analyse_recording(path, fps=FPS).fit["restitution"]["e"]["value"] == pytest.approx(E_TRUE, abs=E_TOL)
+    with pytest.raises(InputError, match=r"Raw Tracks.csv: the table counts frames but gives no times; give the "
+                                         r"frame rate with --fps"):
+        read_track(path)
 
 
 def test_mtrack2_through_gravity_scale_gives_e_and_x(tmp_path):

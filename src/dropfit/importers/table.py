@@ -172,6 +172,12 @@ def _numeric_share(fields, decimal_comma):
     return sum(_is_number(field, decimal_comma) for field in filled) / max(len(filled), 1)
 
 
+def _trimmed(fields, width):
+    """A header's ``fields`` without empty ones past the data's ``width`` (a header ending in a separator, as
+    MTrack2 writes it)."""
+    return fields[:width] if not any(field.strip() for field in fields[width:]) else fields
+
+
 def _layout(lines, separator):
     """(header index, data start, decimal comma, data rows, data end, numbers) of ``lines`` split by
     ``separator``, or None.
@@ -195,7 +201,7 @@ def _layout(lines, separator):
             width = max(len(split_lines[i]) for i in range(start, end))
             header = None
             for above in range(start - 1, -1, -1):
-                if len(split_lines[above]) != width:
+                if len(_trimmed(split_lines[above], width)) != width:
                     break
                 header = above
             numbers = sum(_is_number(f, decimal_comma) for fields in split_lines[start:end] for f in fields)
@@ -228,10 +234,11 @@ def read_table(path, lines):
     separator = max(found, key=lambda sep: (found[sep][3], len(split(lines[found[sep][0]], sep)),
                                             -list(SEPARATORS).index(sep)))
     header_index, start, decimal_comma, _, end, _ = found[separator]
-    header = [field.strip().strip('"').strip() for field in split(lines[header_index], separator)]
+    rows = [split(line, separator) for line in lines[start:end]]
+    header = [field.strip().strip('"').strip()
+              for field in _trimmed(split(lines[header_index], separator), max(map(len, rows)))]
     between = [split(line, separator) for line in lines[header_index + 1: start]]
     units_row = next((fields for fields in between if sum(normal_unit(f) is not None for f in fields) >= 2), None)
-    rows = [split(line, separator) for line in lines[start:end]]
     return Table(str(path), header, rows, separator, decimal_comma, lines[:header_index], units_row)
 
 
