@@ -7,6 +7,7 @@ must give back its e.
 """
 
 import re
+import shlex
 from pathlib import Path
 
 import numpy as np
@@ -89,6 +90,28 @@ def test_the_guessed_mapping_is_printed_and_a_european_log_gives_the_true_e(tmp_
     assert result.fit["restitution"]["e"]["value"] == pytest.approx(E_TRUE, abs=E_TOL)
 
 
+def test_a_windows_spreadsheet_csv_in_cp1252_is_decoded_and_advice_pastes_into_a_shell(tmp_path, capsys):
+    """German Excel saves "CSV" in Windows-1252 ('Höhe' as the byte 0xF6, not UTF-8): it is decoded so, the line
+    saying so, and e comes back (it read 'H\ufffdhe (cm)', no height column). The advice naming a column with
+    spaces is quoted, so that it pastes into a shell and names the columns."""
+    time, height = truth()
+    path = tmp_path / "messung.csv"
+    path.write_bytes(_european(time, height).removeprefix("\ufeff").encode("cp1252"))
+    assert main(["measure", str(path), "--out", str(tmp_path / "trajectory.nc")]) == 0
+    assert capsys.readouterr().err == (f"read {shown_path(path)} as time 'Zeit (s)' [s], height 'Höhe (cm)' [cm] "
+                                       f"(the text is not UTF-8: decoded as Windows cp1252)\n")
+    assert analyse_recording(path).fit["restitution"]["e"]["value"] == pytest.approx(E_TRUE, abs=E_TOL)
+    unknown = tmp_path / "gewicht.csv"
+    unknown.write_bytes(_european(time, height).removeprefix("\ufeff").replace("Höhe (cm)", "Größe (kg)")
+                        .encode("cp1252"))
+    with pytest.raises(InputError) as refused:
+        read_track(unknown)
+    advice = str(refused.value).split("--columns ", 1)[1]
+    assert advice == "'time=Zeit (s)[s],y=COL[m]'"
+    pasted = shlex.split(advice.replace("COL", "Größe (kg)"))  # as a shell passes it: one argument
+    assert read_track(unknown, ImportOptions(columns=pasted[0])).y == pytest.approx(height * 100, abs=6e-5)
+
+
 def test_columns_option_maps_columns_the_names_do_not_tell(tmp_path, capsys):
     """Columns named a, b, c: refused with the list of columns and what to write; --columns reads them."""
     time, height = truth()
@@ -104,13 +127,13 @@ def test_columns_option_maps_columns_the_names_do_not_tell(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("header, options, message", [
-    ("time_s,height", {}, r"the height column 'height' names no unit; give it with --columns, e.g. y=height\[cm\]"),
+    ("time_s,height", {}, r"the height column 'height' names no unit; give it with --columns, e.g. 'y=height\[cm\]'"),
     ("t (s),height_m,y (cm)", {}, r"2 columns could be the height \('height_m', 'y \(cm\)'\); name one with --columns"),
     ("a,b", {"columns": "time=a[s],y=q[m]"}, r"--columns names 'q' for the height, but the columns are 'a', 'b'"),
     ("a,b", {"columns": "when=a"}, r"--columns 'when=a' is not a mapping such as time=t\[s\],y=height\[cm\]"),
     ("a,b", {"columns": "time=a[h],y=b[m]"}, r"--columns names the unit 'h', not one dropfit reads"),
     ("time_s,height_kg", {}, r"cannot tell which column is the height among 'time_s', 'height_kg'; name it with "
-                             r"--columns time=time_s\[s\],y=COL\[m\]"),
+                             r"--columns 'time=time_s\[s\],y=COL\[m\]'"),
     ("time (m),height (m)", {}, r"the time column 'time \(m\)' is in m, not a unit of time"),
     ("a,b", {"columns": "time=a[ms]"}, r"--columns names no height \(y=COL\[m\]\) column; .* --kind audio"),
 ])

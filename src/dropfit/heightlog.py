@@ -23,7 +23,7 @@ import pandas as pd
 import xarray as xr
 
 from .errors import InputError, one_line, shown, shown_path
-from .files import check_input_file, read_bytes
+from .files import check_input_file, decoded_text, read_bytes
 from .physics import STANDARD_GRAVITY_M_S2, drag_parameter
 
 TIME_UNITS_S = {"s": 1.0, "ms": 1e-3}
@@ -211,7 +211,7 @@ def read_height_log(path, horizontal=False, exact_repeats=False):
     raw = read_bytes(path, "height log (CSV) or video")
     check_not_other_file(path, raw)
     name = shown_path(path)
-    text = raw.decode("utf-8", errors="replace").removeprefix("\ufeff")  # a spreadsheet's "CSV UTF-8" has a BOM
+    text, _ = decoded_text(raw)
     lines = [line for line in text.splitlines() if line.strip() and not line.lstrip().startswith("#")]
     if not lines:
         raise InputError(f"{name}: the file is empty (no header and no samples)")

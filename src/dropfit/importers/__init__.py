@@ -56,8 +56,8 @@ def read_track(path, options=None):
     InputError
         One line naming the file, what is wrong and what to try.
     """
-    from . import highspeed, imagej, sensors, tracker
-    from .table import MAX_LINE_CHARACTERS, read_table, text_lines, track_from_table
+    from . import highspeed, sensors, tracker
+    from .table import text_lines
     from ..files import read_bytes
     from ..heightlog import check_not_other_file
 
@@ -76,7 +76,18 @@ def read_track(path, options=None):
         raw, options = sensors.phyphox_position_set(path, sets), dataclasses.replace(options, format="phyphox")
     else:
         check_not_other_file(path, raw)
-    lines = text_lines(path, raw)
+    lines, encoding = text_lines(path, raw)
+    track = _read_text(path, lines, options)
+    if encoding != "utf-8":  # say it: a wrong guess shows in the column names
+        track.mapping += f" (the text is not UTF-8: decoded as Windows {encoding})"
+    return track
+
+
+def _read_text(path, lines, options):
+    """A text file's track, from its ``lines``, its format found or named in ``options``."""
+    from . import imagej, sensors, tracker
+    from .table import MAX_LINE_CHARACTERS, read_table, track_from_table
+
     if options.format == "dropfit" or options.format is None and (
             max(map(len, lines[:50]), default=0) > MAX_LINE_CHARACTERS or _is_native(lines)):
         return _native(path)

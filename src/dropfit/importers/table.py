@@ -16,11 +16,13 @@ from __future__ import annotations
 
 import csv
 import re
+import shlex
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from ..errors import InputError, shown, shown_path
+from ..files import decoded_text
 from .base import LENGTH_UNITS_M, TIME_UNITS_S, ImportedTrack, frame_times, quoted, \
     unique_frames
 
@@ -162,9 +164,11 @@ def split(line, separator):
 
 
 def text_lines(path, raw):
-    """The non-blank lines of a text file (UTF-8, a byte-order mark dropped; ``#`` comments kept out)."""
-    text = raw.decode("utf-8", errors="replace").removeprefix("\ufeff")
-    return [line.rstrip("\r\n") for line in text.splitlines() if line.strip() and not line.lstrip().startswith("#")]
+    """The non-blank lines of a text file (``#`` comments kept out), and its encoding
+    (:func:`dropfit.files.decoded_text`: UTF-8, else Windows-1252)."""
+    text, encoding = decoded_text(raw)
+    lines = [line.rstrip("\r\n") for line in text.splitlines() if line.strip() and not line.lstrip().startswith("#")]
+    return lines, encoding
 
 
 def _numeric_share(fields, decimal_comma):
@@ -304,8 +308,9 @@ def choose_columns(table, columns, mapping=None, run=None):
         raise InputError(f"{name}: cannot tell which column is the time among {quoted(table.header)}; name it with "
                          f"--columns time=COL[s],y=COL[m]")
     if "y" not in chosen and "distance" not in chosen:
+        time = columns[chosen.get("time", chosen.get("frame"))].header
         raise InputError(f"{name}: cannot tell which column is the height among {quoted(table.header)}; name it with "
-                         f"--columns time={columns[chosen.get('time', chosen.get('frame'))].header}[s],y=COL[m]")
+                         f"--columns {shlex.quote(f'time={shown(time, 60)}[s],y=COL[m]')}")
     if "y" in chosen:
         chosen.pop("distance", None)
     return chosen
@@ -358,8 +363,8 @@ def track_from_table(table, format_name, options, default_time_unit=None, defaul
     unit = units[role] or default_length_unit
     if unit is None:
         raise InputError(f"{name}: the {ROLE_WORDS[role]} column '{shown(table.header[chosen[role]], 30)}' names no "
-                         f"unit; give it with --columns, e.g. y={shown(table.header[chosen[role]], 30)}[cm] (m, cm, "
-                         f"mm or px)")
+                         f"unit; give it with --columns, e.g. {shlex.quote(f'y={shown(table.header[chosen[role]], 60)}[cm]')} "
+                         f"(m, cm, mm or px)")
     if unit not in LENGTH_UNITS_M and unit != "px":
         raise InputError(f"{name}: the {ROLE_WORDS[role]} column '{shown(table.header[chosen[role]], 30)}' is in "
                          f"{unit}, not a length; name the height column with --columns y=COL[m]")
