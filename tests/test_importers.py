@@ -253,6 +253,28 @@ def test_tracker_data_table_carries_x(tmp_path):
     np.testing.assert_allclose(trajectory["x"].values, x, atol=ROUNDING_M)
 
 
+def test_tracker_table_of_two_tracks_reads_the_one_chosen_or_the_ball(tmp_path):
+    """Tracker exports several tracks side by side: a line naming each over its columns ('mass A<tab><tab><tab>mass
+    B<tab><tab>'), then t x y under each. The ball (listed second here) is picked, or the track --track-id names
+    (it was 'cannot tell which column is the time among 'mass A', '', ''…', --track-id ignored)."""
+    time, height = truth()
+    x = 0.1 + 0.3 * time
+    short = time.size // 2  # the other mass was marked in the first half only: blank cells after
+    cells = [f"{t:.3f}\t0.50000\t0.30000" if i < short else "\t\t" for i, t in enumerate(time)]
+    body = "".join(f"{other}\t{t:.3f}\t{x_:.5f}\t{y:.5f}\n" for other, t, x_, y in zip(cells, time, x, height))
+    path = tmp_path / "two masses.txt"
+    path.write_text("hand\t\t\tball\t\t\nt\tx\ty\tt\tx\ty\n" + body)
+    track = read_track(path)
+    assert track.source_format == "tracker" and "track 'ball', the most ball-like of 2" in track.mapping
+    np.testing.assert_allclose(track.y, height, atol=ROUNDING_M)
+    np.testing.assert_allclose(track.x, x, atol=ROUNDING_M)
+    assert analyse_recording(path).fit["restitution"]["e"]["value"] == pytest.approx(E_TRUE, abs=E_TOL)
+    hand = read_track(path, ImportOptions(track_id=1))
+    assert "track 'hand', given" in hand.mapping and hand.time_s.size == short and np.all(hand.y == 0.3)
+    with pytest.raises(InputError, match=r"two masses.txt: there is no track 3; the tracks are 1, 2 \(--track-id N\)"):
+        read_track(path, ImportOptions(track_id=3))
+
+
 # --- ImageJ: MTrack2 and TrackMate -----------------------------------------------------------------
 
 FPS = 50.0  # frames/s of the frame-indexed fixtures

@@ -95,6 +95,8 @@ def _read_text(path, lines, options):
         return _finished(path, imagej.read_mtrack2(path, lines, options))
     if options.format == "trackmate" or options.format is None and imagej.is_trackmate(lines):
         return _finished(path, imagej.read_trackmate(path, lines, options))
+    if options.format in (None, "tracker") and tracker.track_groups(lines):
+        return _finished(path, tracker.read_tracks_table(path, lines, options))
     try:
         table = read_table(path, lines)
     except InputError:
