@@ -162,10 +162,12 @@ def drop_repeated_positions(track):
     With x and y, a position repeated exactly in the next sample, where the ball moves before and after, is
     a duplicated frame, not a ball standing still for one frame. With the height alone a repeat is more
     often real (a sensor quantised to 1 mm repeats a height near an apex, where the ball turns, or on the
-    floor), so it counts only where it breaks a smooth motion: the heights on both sides move the same way
-    by more than the quantisation step (the smallest gap between two heights of the track). Under
-    constant acceleration the middle of three equal frame intervals moves by their outer ones' mean, so
-    it cannot round to no motion when both outer ones move by two steps or more.
+    floor; a noisy ball at rest repeats one at random), so it counts only where it breaks a smooth motion:
+    the heights on both sides move the same way by more than the quantisation step (the smallest gap
+    between two heights of the track) and five times the noise
+    (:func:`dropfit.analysis.segmentation.estimate_noise`). Under constant acceleration the middle of
+    three equal frame intervals moves by their outer ones' mean, so it cannot round to no motion when
+    both outer ones move by two steps or more.
 
     Runs of three or more equal positions (a ball at rest) are kept.
     """
@@ -178,12 +180,15 @@ def drop_repeated_positions(track):
     before = np.concatenate([[False], same[:-1]])
     after = np.concatenate([same[1:], [False]])
     repeat = np.flatnonzero(same & ~before & ~after) + 1
-    if track.x is None:
+    if track.x is None and repeat.size:
+        from ..analysis.segmentation import estimate_noise
+
         repeat = repeat[(repeat >= 2) & (repeat + 1 < y.size)]
         finite = np.unique(y[np.isfinite(y)])
         step = float(np.min(np.diff(finite))) if finite.size > 1 else 0.0  # the quantisation, or less
+        moved = max(step, 5.0 * estimate_noise(y[np.isfinite(y)])) if finite.size > 3 else step
         into, out_of = y[repeat - 1] - y[repeat - 2], y[repeat + 1] - y[repeat]
-        repeat = repeat[(np.abs(into) > step) & (np.abs(out_of) > step) & (np.sign(into) == np.sign(out_of))]
+        repeat = repeat[(np.abs(into) > moved) & (np.abs(out_of) > moved) & (np.sign(into) == np.sign(out_of))]
     if repeat.size == 0:
         return track
     y, x = track.y.copy(), None if track.x is None else track.x.copy()
