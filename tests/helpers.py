@@ -44,7 +44,8 @@ BAD_LOGS = {
     "wrong_columns": ("t,height\n0.0,1.0\n0.01,0.99\n", ["time_s", "t, height"]),
     "no_rows": ("# header only\ntime_s,y_m\n", ["no samples"]),
     "not_a_number": ("time_s,y_m\n0.00,1.0\n0.01,abc\n0.02,0.98\n", ["y_m", "not a number", "abc"]),
-    "repeated_time": ("time_s,y_m\n0.00,1.0\n0.01,0.99\n0.01,0.99\n0.02,0.98\n", ["does not increase"]),
+    "repeated_time": ("time_s,y_m\n0.00,1.0\n0.01,0.99\n0.01,0.97\n0.02,0.98\n", ["given twice"]),
+    "time_back": ("time_s,y_m\n0.00,1.0\n0.02,0.99\n0.01,0.97\n0.03,0.98\n", ["does not increase"]),
     "all_nan": ("time_s,y_m\n0.00,\n0.01,\n0.02,nan\n", ["y_m", "no valid value"]),
     "infinite": ("time_s,y_m\n0.00,1.0\n0.01,inf\n0.02,0.98\n", ["y_m", "infinite"]),
 }

@@ -8,6 +8,7 @@ import numpy as np
 import pytest
 
 from dropfit import analyse_recording
+from dropfit.errors import InputError
 from dropfit.importers import ImportOptions, read_track
 
 from helpers import bouncing_ball
@@ -81,7 +82,7 @@ def test_the_same_frame_or_time_twice_is_dropped(tmp_path):
     tracker.write_text(tracker_table(time[twice], heights(time)[twice], 0.3 * time[twice]))
     track = read_track(tracker)
     np.testing.assert_allclose(track.time_s, np.round(time, 4), atol=1e-9)
-    assert "1 sample at a time already seen" in track.notes[0]
+    assert "1 sample repeating the one before (a row exported twice) dropped" in track.notes[0]
     assert e_of(tracker) == pytest.approx(E_TRUE, abs=E_TOL)
 
 
@@ -104,3 +105,60 @@ def test_a_duplicated_video_frame_is_a_dropout_not_a_pause(kind, tmp_path):
     assert np.isnan(track.y[25]) and np.isfinite(track.y[24]) and np.isfinite(track.y[26])
     assert "1 repeated position (a duplicated video frame) set as dropout" in track.notes
     assert e_of(path, **options) == pytest.approx(E_TRUE, abs=E_TOL)
+
+
+def height_table(header, time_s, y_m):
+    """A table of time and height alone (no x): ``header``, then one row per sample, s and m."""
+    return header + "\n" + "".join(f"{t:.4f},{y:.5f}\n" for t, y in zip(time_s, y_m))
+
+
+@pytest.mark.parametrize("header", ["Time (s),Height (m)", "time_s,y_m"])
+def test_a_duplicated_video_frame_is_a_dropout_with_the_height_alone(header, tmp_path):
+    """Frames 11 and 26 show the frame before again in a table of heights alone, while the ball falls: the repeat breaks the smooth motion, so it becomes a dropout as with x and y (it was kept, and its
+    wrong time biased e)."""
+    time = np.arange(90) / FPS
+    y_m = heights(time)
+    y_m[10], y_m[25] = y_m[9], y_m[24]
+    path = tmp_path / "heights.csv"
+    path.write_text(height_table(header, time, y_m))
+    track = read_track(path)
+    assert np.isnan(track.y[[10, 25]]).all() and np.isfinite(np.delete(track.y, [10, 25])).all()
+    assert "2 repeated positions (a duplicated video frame) set as dropouts" in track.notes
+    assert e_of(path) == pytest.approx(E_TRUE, abs=E_TOL)
+
+
+@pytest.mark.parametrize("resolution_mm, noise_mm", [(1.0, 0.0), (0.1, 0.5)])
+def test_a_quantised_sensor_may_repeat_a_height_where_the_ball_turns_or_rests(resolution_mm, noise_mm, tmp_path):
+    """A 50 Hz sensor rounding to 1 mm repeats a height near each apex and on the floor (the ball turning); one
+    rounding to 0.1 mm with 0.5 mm noise repeats one at random while the ball rests (its neighbours moving
+    by noise); a ball held still repeats it for many samples: none is a duplicated frame, all are kept."""
+    time = np.arange(200) / 50.0
+    noise = np.random.default_rng(3).normal(0.0, noise_mm, time.size)
+    y_mm = np.round((1000 * (bouncing_ball(time, DROP_M, E_TRUE) + CENTRE_M) + noise) / resolution_mm)
+    y_mm = y_mm * resolution_mm
+    y_mm[:5] = y_mm[0]  # held still before the release
+    path = tmp_path / "sensor.csv"
+    path.write_text("Time (s),Height (mm)\n" + "".join(f"{t:.3f},{y:.1f}\n" for t, y in zip(time, y_mm)))
+    assert np.count_nonzero(np.diff(y_mm)[5:] == 0) >= 3  # the repeats the rule has to keep
+    track = read_track(path)
+    assert np.isfinite(track.y).all() and not track.notes
+
+
+def test_a_row_exported_twice_reads_alike_in_both_layouts(tmp_path):
+    """dropfit's own log (time_s,y_m) and a named table drop a row repeated exactly, with a note (the own log
+    refused it); the same time with another height is refused in both, one line naming the time."""
+    time = np.arange(60) / FPS
+    y_m = heights(time)
+    twice = np.insert(np.arange(60), 31, 30)
+    for header in ("time_s,y_m", "Time (s),Height (m)"):
+        path = tmp_path / "twice.csv"
+        path.write_text(height_table(header, time[twice], y_m[twice]))
+        track = read_track(path)
+        np.testing.assert_allclose(track.time_s, np.round(time, 4), atol=1e-9)
+        assert "1 sample repeating the one before (a row exported twice) dropped" in track.notes
+        assert e_of(path) == pytest.approx(E_TRUE, abs=E_TOL)
+        changed = y_m[twice]
+        changed[31] += 0.01
+        path.write_text(height_table(header, time[twice], changed))
+        with pytest.raises(InputError, match=r"twice.csv: time 1 s is given twice with different positions \(.*; remove the wrong row"):
+            read_track(path)

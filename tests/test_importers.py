@@ -7,6 +7,7 @@ must give back its e.
 """
 
 import re
+import shlex
 from pathlib import Path
 
 import numpy as np
@@ -89,6 +90,28 @@ def test_the_guessed_mapping_is_printed_and_a_european_log_gives_the_true_e(tmp_
     assert result.fit["restitution"]["e"]["value"] == pytest.approx(E_TRUE, abs=E_TOL)
 
 
+def test_a_windows_spreadsheet_csv_in_cp1252_is_decoded_and_advice_pastes_into_a_shell(tmp_path, capsys):
+    """German Excel saves "CSV" in Windows-1252 ('Höhe' as the byte 0xF6, not UTF-8): it is decoded so, the line
+    saying so, and e comes back (it read 'H\ufffdhe (cm)', no height column). The advice naming a column with
+    spaces is quoted, so that it pastes into a shell and names the columns."""
+    time, height = truth()
+    path = tmp_path / "messung.csv"
+    path.write_bytes(_european(time, height).removeprefix("\ufeff").encode("cp1252"))
+    assert main(["measure", str(path), "--out", str(tmp_path / "trajectory.nc")]) == 0
+    assert capsys.readouterr().err == (f"read {shown_path(path)} as time 'Zeit (s)' [s], height 'Höhe (cm)' [cm] "
+                                       f"(the text is not UTF-8: decoded as Windows cp1252)\n")
+    assert analyse_recording(path).fit["restitution"]["e"]["value"] == pytest.approx(E_TRUE, abs=E_TOL)
+    unknown = tmp_path / "gewicht.csv"
+    unknown.write_bytes(_european(time, height).removeprefix("\ufeff").replace("Höhe (cm)", "Größe (kg)")
+                        .encode("cp1252"))
+    with pytest.raises(InputError) as refused:
+        read_track(unknown)
+    advice = str(refused.value).split("--columns ", 1)[1]
+    assert advice == "'time=Zeit (s)[s],y=COL[m]'"
+    pasted = shlex.split(advice.replace("COL", "Größe (kg)"))  # as a shell passes it: one argument
+    assert read_track(unknown, ImportOptions(columns=pasted[0])).y == pytest.approx(height * 100, abs=6e-5)
+
+
 def test_columns_option_maps_columns_the_names_do_not_tell(tmp_path, capsys):
     """Columns named a, b, c: refused with the list of columns and what to write; --columns reads them."""
     time, height = truth()
@@ -104,13 +127,13 @@ def test_columns_option_maps_columns_the_names_do_not_tell(tmp_path, capsys):
 
 
 @pytest.mark.parametrize("header, options, message", [
-    ("time_s,height", {}, r"the height column 'height' names no unit; give it with --columns, e.g. y=height\[cm\]"),
+    ("time_s,height", {}, r"the height column 'height' names no unit; give it with --columns, e.g. 'y=height\[cm\]'"),
     ("t (s),height_m,y (cm)", {}, r"2 columns could be the height \('height_m', 'y \(cm\)'\); name one with --columns"),
     ("a,b", {"columns": "time=a[s],y=q[m]"}, r"--columns names 'q' for the height, but the columns are 'a', 'b'"),
     ("a,b", {"columns": "when=a"}, r"--columns 'when=a' is not a mapping such as time=t\[s\],y=height\[cm\]"),
     ("a,b", {"columns": "time=a[h],y=b[m]"}, r"--columns names the unit 'h', not one dropfit reads"),
     ("time_s,height_kg", {}, r"cannot tell which column is the height among 'time_s', 'height_kg'; name it with "
-                             r"--columns time=time_s\[s\],y=COL\[m\]"),
+                             r"--columns 'time=time_s\[s\],y=COL\[m\]'"),
     ("time (m),height (m)", {}, r"the time column 'time \(m\)' is in m, not a unit of time"),
     ("a,b", {"columns": "time=a[ms]"}, r"--columns names no height \(y=COL\[m\]\) column; .* --kind audio"),
 ])
@@ -230,6 +253,28 @@ def test_tracker_data_table_carries_x(tmp_path):
     np.testing.assert_allclose(trajectory["x"].values, x, atol=ROUNDING_M)
 
 
+def test_tracker_table_of_two_tracks_reads_the_one_chosen_or_the_ball(tmp_path):
+    """Tracker exports several tracks side by side: a line naming each over its columns ('mass A<tab><tab><tab>mass
+    B<tab><tab>'), then t x y under each. The ball (listed second here) is picked, or the track --track-id names
+    (it was 'cannot tell which column is the time among 'mass A', '', ''…', --track-id ignored)."""
+    time, height = truth()
+    x = 0.1 + 0.3 * time
+    short = time.size // 2  # the other mass was marked in the first half only: blank cells after
+    cells = [f"{t:.3f}\t0.50000\t0.30000" if i < short else "\t\t" for i, t in enumerate(time)]
+    body = "".join(f"{other}\t{t:.3f}\t{x_:.5f}\t{y:.5f}\n" for other, t, x_, y in zip(cells, time, x, height))
+    path = tmp_path / "two masses.txt"
+    path.write_text("hand\t\t\tball\t\t\nt\tx\ty\tt\tx\ty\n" + body)
+    track = read_track(path)
+    assert track.source_format == "tracker" and "track 'ball', the most ball-like of 2" in track.mapping
+    np.testing.assert_allclose(track.y, height, atol=ROUNDING_M)
+    np.testing.assert_allclose(track.x, x, atol=ROUNDING_M)
+    assert analyse_recording(path).fit["restitution"]["e"]["value"] == pytest.approx(E_TRUE, abs=E_TOL)
+    hand = read_track(path, ImportOptions(track_id=1))
+    assert "track 'hand', given" in hand.mapping and hand.time_s.size == short and np.all(hand.y == 0.3)
+    with pytest.raises(InputError, match=r"two masses.txt: there is no track 3; the tracks are 1, 2 \(--track-id N\)"):
+        read_track(path, ImportOptions(track_id=3))
+
+
 # --- ImageJ: MTrack2 and TrackMate -----------------------------------------------------------------
 
 FPS = 50.0  # frames/s of the frame-indexed fixtures
@@ -243,12 +288,13 @@ def ball_in_image(frames):
     return time, 100.0 + 20.0 * time, FLOOR_ROW_PX - PX_PER_M * height
 
 
-def mtrack2_table(separator="\t"):
-    """Three objects: a still speck (track 1), the ball (track 2, lost in two frames), a short-lived one (3)."""
+def mtrack2_table(separator="\t", header_end=""):
+    """Three objects: a still speck (track 1), the ball (track 2, lost in two frames), a short-lived one (3);
+    ``header_end`` ends the header line (MTrack2 may end it with a separator)."""
     frames = np.arange(1, 101)
     _, column, row = ball_in_image(frames)
     header = ["Frame"] + [f"{c}{k}" for k in (1, 2, 3) for c in ("X", "Y", "Flag")]
-    lines = ["Tracks 1 to 3", separator.join(header)]
+    lines = ["Tracks 1 to 3", separator.join(header) + header_end]
     for i, frame in enumerate(frames):
         cells = [str(frame), "12.0", "30.5", "0"]
         cells += ["", "", ""] if i in LOST_FRAMES else [f"{column[i]:.3f}", f"{row[i]:.3f}", "0"]
@@ -273,6 +319,41 @@ def test_mtrack2_picks_the_ball_and_times_frames(separator, tmp_path):
     np.testing.assert_allclose(track.x, column[kept], atol=6e-4)
     still = read_track(path, ImportOptions(fps=FPS, track_id=1))
     assert np.all(still.y == 30.5) and still.time_s.size == frames.size
+
+
+def test_mtrack2_header_ending_in_a_separator(tmp_path):
+    """MTrack2 may end its header with a tab the rows do not have: the empty column past the data is no column
+    (it was 'no table of numbers under a header found')."""
+    text, frames, _, row = mtrack2_table(header_end="\t")
+    path = tmp_path / "Results.txt"
+    path.write_text(text)
+    track = read_track(path, ImportOptions(fps=FPS))
+    kept = np.setdiff1d(np.arange(frames.size), LOST_FRAMES)
+    assert "track 2" in track.mapping
+    np.testing.assert_allclose(track.y, row[kept], atol=6e-4)
+
+
+@pytest.mark.parametrize("numbered", [True, False])
+def test_mtrack2_raw_tracks_window_saved_as_csv(numbered, tmp_path):
+    """ImageJ saves MTrack2's Raw Tracks window without a Frame column (' ,X1,Y1,Flag1,…' with its row numbers,
+    or 'X1,Y1,Flag1,…'), one row per frame: the row is the frame, --fps gives the times, e comes back (it was
+    'cannot tell which column is the time', and --format mtrack2 refused it)."""
+    text, frames, column, row = mtrack2_table(",")
+    lines = [line.split(",", 1)[1] if "," in line else "" for line in text.splitlines()[1:1 + 1 + frames.size]]
+    lines = [(" ," if numbered else "") + lines[0]] + [(f"{i + 1}," if numbered else "") + line
+                                                       for i, line in enumerate(lines[1:])]
+    path = tmp_path / "Raw Tracks.csv"
+    path.write_text("\n".join(lines) + "\n")
+    for options in ({}, {"format": "mtrack2"}):
+        track = read_track(path, ImportOptions(fps=FPS, **options))
+        assert track.source_format == "mtrack2" and "Raw Tracks" in track.mapping and "track 2" in track.mapping
+        kept = np.setdiff1d(np.arange(frames.size), LOST_FRAMES)
+        np.testing.assert_allclose(track.time_s, (frames[kept] - 1) / FPS, atol=1e-12)
+        np.testing.assert_allclose(track.y, row[kept], atol=6e-4)
+    assert analyse_recording(path, fps=FPS).fit["restitution"]["e"]["value"] == pytest.approx(E_TRUE, abs=E_TOL)
+    with pytest.raises(InputError, match=r"Raw Tracks.csv: the table counts frames but gives no times; give the "
+                                         r"frame rate with --fps"):
+        read_track(path)
 
 
 def test_mtrack2_through_gravity_scale_gives_e_and_x(tmp_path):

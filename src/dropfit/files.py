@@ -112,6 +112,22 @@ def read_bytes(path, what="file"):
         raise InputError(unreadable(path, error)) from None
 
 
+def decoded_text(raw):
+    """The text of a file's bytes and its encoding: UTF-8 (a byte-order mark dropped), else Windows-1252, the
+    encoding a Windows spreadsheet saves "CSV" in (``Höhe`` as the byte 0xF6); bytes it leaves undefined
+    become U+FFFD.
+
+    Returns
+    -------
+    (str, str)
+        The text and ``"utf-8"`` or ``"cp1252"``.
+    """
+    try:
+        return raw.decode("utf-8").removeprefix("\ufeff"), "utf-8"
+    except UnicodeDecodeError:
+        return raw.decode("cp1252", errors="replace"), "cp1252"
+
+
 def read_json(path, what="JSON file written by a dropfit stage"):
     """Read a JSON file written by a dropfit stage; raise :class:`InputError` for a failure record
     (with the record's message) and for a file that is missing, unreadable or not JSON."""

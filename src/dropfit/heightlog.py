@@ -23,7 +23,7 @@ import pandas as pd
 import xarray as xr
 
 from .errors import InputError, one_line, shown, shown_path
-from .files import check_input_file, read_bytes
+from .files import check_input_file, decoded_text, read_bytes
 from .physics import STANDARD_GRAVITY_M_S2, drag_parameter
 
 TIME_UNITS_S = {"s": 1.0, "ms": 1e-3}
@@ -179,7 +179,7 @@ def _check_header(path, header, rows):
                          f"between the columns")
 
 
-def read_height_log(path, horizontal=False):
+def read_height_log(path, horizontal=False, exact_repeats=False):
     """Read and validate a height log.
 
     Parameters
@@ -188,6 +188,9 @@ def read_height_log(path, horizontal=False):
         The CSV file.
     horizontal : bool
         Also return the optional horizontal column (``x_m``, ``x_cm``, ``x_mm`` or ``x_px``).
+    exact_repeats : bool
+        Pass a row that repeats the previous one exactly (a row exported twice) for the caller to drop
+        (:func:`dropfit.importers.base.checked_track`, with a note); refused otherwise.
 
     Returns
     -------
@@ -208,7 +211,7 @@ def read_height_log(path, horizontal=False):
     raw = read_bytes(path, "height log (CSV) or video")
     check_not_other_file(path, raw)
     name = shown_path(path)
-    text = raw.decode("utf-8", errors="replace").removeprefix("\ufeff")  # a spreadsheet's "CSV UTF-8" has a BOM
+    text, _ = decoded_text(raw)
     lines = [line for line in text.splitlines() if line.strip() and not line.lstrip().startswith("#")]
     if not lines:
         raise InputError(f"{name}: the file is empty (no header and no samples)")
@@ -242,8 +245,14 @@ def read_height_log(path, horizontal=False):
         row = int(np.flatnonzero(~np.isfinite(time))[0])
         raise InputError(f"{name}: time is missing or not finite in data row {row + 1}")
     steps = np.diff(time)
+    if exact_repeats:
+        repeated = np.all(table.values[1:] == table.values[:-1], axis=1)  # the cells' text, every column
+        steps = np.where(repeated, 1.0, steps)
     if np.any(steps <= 0):
         row = int(np.flatnonzero(steps <= 0)[0])
+        if steps[row] == 0 and not np.all(table.values[row + 1] == table.values[row]):
+            raise InputError(f"{name}: time {time[row]:g} s is given twice with different positions (data rows "
+                             f"{row + 1} and {row + 2}); remove the wrong row, or give the times with more decimals")
         raise InputError(f"{name}: time does not increase at data row {row + 2} "
                          f"({time[row]:g} s then {time[row + 1]:g} s); sort the log or remove repeated rows")
     if np.any(np.isinf(height)):

@@ -73,9 +73,10 @@ def measure(log_path, out_path, ball=None, settings=None, sample_id=None, track_
 
 def say_how_read(trajectory):
     """Print how an imported table was read (its columns, units and repairs) to standard error, one line, so
-    that the user sees what was guessed; nothing for dropfit's own height log and for videos."""
+    that the user sees what was guessed; nothing for videos, nor for dropfit's own height log unless
+    something was repaired (a row exported twice, a video frame shown twice)."""
     attrs = trajectory.attrs
-    if attrs.get("import_format", "dropfit") != "dropfit":
+    if attrs.get("import_format", "dropfit") != "dropfit" or attrs.get("import_notes"):
         notes = f"; {attrs['import_notes']}" if attrs.get("import_notes") else ""
         print(one_line(attrs["import_mapping"] + notes), file=sys.stderr)
 

@@ -56,8 +56,8 @@ def read_track(path, options=None):
     InputError
         One line naming the file, what is wrong and what to try.
     """
-    from . import highspeed, imagej, sensors, tracker
-    from .table import MAX_LINE_CHARACTERS, read_table, text_lines, track_from_table
+    from . import highspeed, sensors, tracker
+    from .table import text_lines
     from ..files import read_bytes
     from ..heightlog import check_not_other_file
 
@@ -76,7 +76,18 @@ def read_track(path, options=None):
         raw, options = sensors.phyphox_position_set(path, sets), dataclasses.replace(options, format="phyphox")
     else:
         check_not_other_file(path, raw)
-    lines = text_lines(path, raw)
+    lines, encoding = text_lines(path, raw)
+    track = _read_text(path, lines, options)
+    if encoding != "utf-8":  # say it: a wrong guess shows in the column names
+        track.mapping += f" (the text is not UTF-8: decoded as Windows {encoding})"
+    return track
+
+
+def _read_text(path, lines, options):
+    """A text file's track, from its ``lines``, its format found or named in ``options``."""
+    from . import imagej, sensors, tracker
+    from .table import MAX_LINE_CHARACTERS, read_table, track_from_table
+
     if options.format == "dropfit" or options.format is None and (
             max(map(len, lines[:50]), default=0) > MAX_LINE_CHARACTERS or _is_native(lines)):
         return _native(path)
@@ -84,6 +95,8 @@ def read_track(path, options=None):
         return _finished(path, imagej.read_mtrack2(path, lines, options))
     if options.format == "trackmate" or options.format is None and imagej.is_trackmate(lines):
         return _finished(path, imagej.read_trackmate(path, lines, options))
+    if options.format in (None, "tracker") and tracker.track_groups(lines):
+        return _finished(path, tracker.read_tracks_table(path, lines, options))
     try:
         table = read_table(path, lines)
     except InputError:
@@ -135,7 +148,7 @@ def _is_native(lines):
 def _native(path):
     from ..heightlog import MAX_ABS_HEIGHT_M, read_height_log
 
-    time, height, unit, x, x_unit = read_height_log(path, horizontal=True)
+    time, height, unit, x, x_unit = read_height_log(path, horizontal=True, exact_repeats=True)
     if x is not None and x_unit != unit:
         if x_unit == "px":
             raise InputError(f"{shown_path(path)}: column x_px needs a scale, but the heights are not in px; give x in "
@@ -147,8 +160,8 @@ def _native(path):
             raise InputError(f"{shown_path(path)}: column x_{x_unit} reaches {farthest:.3g} m from its zero (more "
                              f"than {MAX_ABS_HEIGHT_M:g} m); check its unit in the column name, or subtract the offset")
         x = x * LENGTH_UNITS_M[x_unit] / LENGTH_UNITS_M[unit]
-    return ImportedTrack(time, height, unit, "dropfit", f"read {shown_path(path)} as a dropfit height log [{unit}]",
-                         x=x)
+    return _finished(path, ImportedTrack(time, height, unit, "dropfit",
+                                         f"read {shown_path(path)} as a dropfit height log [{unit}]", x=x))
 
 
 def _finished(path, track):

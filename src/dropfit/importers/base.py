@@ -110,7 +110,8 @@ class ImportedTrack:
 def checked_track(path, track):
     """``track`` after checking what every format must give: finite, increasing times and some position.
 
-    Samples at a time already seen are dropped (a frame exported twice); a note says how many.
+    A sample repeating the previous one exactly (time and position: a row exported twice) is dropped, a
+    note saying how many; the same time with another position is refused, as no file tells which is right.
     """
     name = shown_path(path)
     time = np.asarray(track.time_s, float)
@@ -124,14 +125,22 @@ def checked_track(path, track):
         back = int(np.flatnonzero(np.diff(time) < 0)[0])
         raise InputError(f"{name}: time goes back at sample {back + 2} ({time[back]:g} s then {time[back + 1]:g} s); "
                          f"sort the table by time")
-    keep = np.concatenate([[True], np.diff(time) > 0])
+    y = np.asarray(track.y, float)
+    x = None if track.x is None else np.asarray(track.x, float)
+    again = np.diff(time) == 0
+    same = _equal(y[1:], y[:-1]) & (True if x is None else _equal(x[1:], x[:-1]))
+    if np.any(again & ~same):
+        row = int(np.flatnonzero(again & ~same)[0])
+        raise InputError(f"{name}: time {time[row]:g} s is given twice with different positions (samples {row + 1} "
+                         f"and {row + 2}); remove the wrong row, or give the times with more decimals")
+    keep = np.concatenate([[True], ~again])
     if not keep.all():
         count = int(np.count_nonzero(~keep))
-        track.notes.append(f"{count} sample{'s' if count > 1 else ''} at a time already seen (a frame exported twice) "
-                           f"dropped")
-    fields = {"time_s": time[keep], "y": np.asarray(track.y, float)[keep]}
-    if track.x is not None:
-        fields["x"] = np.asarray(track.x, float)[keep]
+        track.notes.append(f"{count} sample{'s' if count > 1 else ''} repeating the one before (a row exported "
+                           f"twice) dropped")
+    fields = {"time_s": time[keep], "y": y[keep]}
+    if x is not None:
+        fields["x"] = x[keep]
     track = dataclasses.replace(track, **fields)
     if not np.any(np.isfinite(track.y)):
         raise InputError(f"{name}: the height column has no valid value ({track.mapping}); name the right one with "
@@ -141,23 +150,51 @@ def checked_track(path, track):
     return track
 
 
+def _equal(a, b):
+    """Element-wise equality, two NaN (two dropouts) counting as equal."""
+    return (a == b) | (np.isnan(a) & np.isnan(b))
+
+
 def drop_repeated_positions(track):
-    """``track`` with a video frame shown twice taken out: a position (x and y) repeated exactly in the next
-    sample, where the ball moves before and after, is a duplicated frame, not a ball standing still for one
-    frame; its time is not when the ball was there, so the repeat becomes a dropout (NaN).
+    """``track`` with a video frame shown twice taken out: its time is not when the ball was there, so the
+    repeat becomes a dropout (NaN).
+
+    With x and y, a position repeated exactly in the next sample, where the ball moves before and after, is
+    a duplicated frame, not a ball standing still for one frame. With the height alone a repeat is more
+    often real (a sensor quantised to 1 mm repeats a height near an apex, where the ball turns, or on the
+    floor; a noisy ball at rest repeats one at random), so it counts only where it breaks a smooth motion:
+    the heights on both sides move the same way by more than the quantisation step (the smallest gap
+    between two heights of the track) and five times the noise
+    (:func:`dropfit.analysis.segmentation.estimate_noise`). Under constant acceleration the middle of
+    three equal frame intervals moves by their outer ones' mean, so it cannot round to no motion when
+    both outer ones move by two steps or more.
 
     Runs of three or more equal positions (a ball at rest) are kept.
     """
-    if track.x is None or track.y.size < 3:
+    if track.y.size < 3:
         return track
-    same = (track.x[1:] == track.x[:-1]) & (track.y[1:] == track.y[:-1]) & np.isfinite(track.y[1:])
+    y = track.y
+    same = (y[1:] == y[:-1]) & np.isfinite(y[1:])
+    if track.x is not None:
+        same &= track.x[1:] == track.x[:-1]
     before = np.concatenate([[False], same[:-1]])
     after = np.concatenate([same[1:], [False]])
     repeat = np.flatnonzero(same & ~before & ~after) + 1
+    if track.x is None and repeat.size:
+        from ..analysis.segmentation import estimate_noise
+
+        repeat = repeat[(repeat >= 2) & (repeat + 1 < y.size)]
+        finite = np.unique(y[np.isfinite(y)])
+        step = float(np.min(np.diff(finite))) if finite.size > 1 else 0.0  # the quantisation, or less
+        moved = max(step, 5.0 * estimate_noise(y[np.isfinite(y)])) if finite.size > 3 else step
+        into, out_of = y[repeat - 1] - y[repeat - 2], y[repeat + 1] - y[repeat]
+        repeat = repeat[(np.abs(into) > moved) & (np.abs(out_of) > moved) & (np.sign(into) == np.sign(out_of))]
     if repeat.size == 0:
         return track
-    y, x = track.y.copy(), track.x.copy()
-    y[repeat], x[repeat] = np.nan, np.nan
+    y, x = track.y.copy(), None if track.x is None else track.x.copy()
+    y[repeat] = np.nan
+    if x is not None:
+        x[repeat] = np.nan
     track.notes.append(f"{repeat.size} repeated position{'s' if repeat.size > 1 else ''} (a duplicated video frame) "
                        f"set as dropout{'s' if repeat.size > 1 else ''}")
     return dataclasses.replace(track, y=y, x=x)

@@ -4,7 +4,9 @@ MTrack2 writes one row per frame and three columns per tracked object: ``Frame X
 Flag2 …`` (tab, comma or space separated), after a line ``Tracks 1 to N`` (or with it as the first
 data row), and ends with a summary block ``Track  Length  Distance traveled  Nr of Frames``. The
 positions are image px, y growing down; a frame in which an object was not found leaves its cells
-blank (or, at the end of a row, absent). The table counts frames, so the frame rate is given
+blank (or, at the end of a row, absent). Its "Raw Tracks" window saved from ImageJ has no Frame
+column (``X1 Y1 Flag1 …``, after the row numbers or without them) and one row per frame: the row
+number, or the row's place, is the frame. The table counts frames, so the frame rate is given
 (``--fps``).
 
 TrackMate's spot table (Tracks → Export spots to CSV) has one row per spot: ``TRACK_ID``,
@@ -32,10 +34,17 @@ _TRACKS_LINE = re.compile(r"^\s*tracks\s+\d+\s+to\s+\d+\s*$", re.IGNORECASE)
 _SUMMARY_LINE = re.compile(r"^\s*track\s*[\t,; ]+\s*length\b", re.IGNORECASE)
 
 
+#: The header of MTrack2's "Raw Tracks" window saved from ImageJ: no Frame column, ``X1 Y1 Flag1 …`` after an
+#: empty name (the row numbers) or first.
+_RAW_TRACKS_HEADER = re.compile(r'^\s*(?:"?\s*"?[\t,;]\s*)?"?x1"?[\t,; ]+"?y1"?[\t,; ]+"?flag1"?', re.IGNORECASE)
+
+
 def is_mtrack2(lines):
-    """Whether ``lines`` look like an MTrack2 table (a ``Tracks 1 to N`` line, or a ``Frame X1 Y1`` header)."""
+    """Whether ``lines`` look like an MTrack2 table (a ``Tracks 1 to N`` line, a ``Frame X1 Y1`` header, or
+    the Raw Tracks window's ``X1 Y1 Flag1`` one)."""
     return any(_TRACKS_LINE.match(line.strip('"')) for line in lines[:5]) or any(
-        re.match(r"^\s*\"?frame\"?[\t,; ]+\"?x1\"?[\t,; ]+\"?y1\"?", line, re.IGNORECASE) for line in lines[:5])
+        re.match(r"^\s*\"?frame\"?[\t,; ]+\"?x1\"?[\t,; ]+\"?y1\"?", line, re.IGNORECASE)
+        or _RAW_TRACKS_HEADER.match(line) for line in lines[:5])
 
 
 def is_trackmate(lines):
@@ -65,10 +74,15 @@ def read_mtrack2(path, lines, options):
             body.append(line)
     table = read_table(path, body)
     header = [field.strip().upper() for field in table.header]
-    if "FRAME" not in header:
-        raise InputError(f"{name}: an MTrack2 table needs the header 'Frame X1 Y1 Flag1 …', found "
-                         f"'{shown(' '.join(table.header), 40)}'")
-    frames = table.numbers(header.index("FRAME"), "Frame")
+    if "FRAME" in header:
+        frames, what = table.numbers(header.index("FRAME"), "Frame"), "MTrack2"
+    elif header[:2] == ["", "X1"]:  # the Raw Tracks window saved with its row numbers: one row per frame
+        frames, what = table.numbers(0, "row number"), "MTrack2 Raw Tracks, frame = row number,"
+    elif header[0] == "X1":  # … saved without them
+        frames, what = np.arange(1.0, len(table.rows) + 1), "MTrack2 Raw Tracks, frame = row,"
+    else:
+        raise InputError(f"{name}: an MTrack2 table needs the header 'Frame X1 Y1 Flag1 …' (or the Raw Tracks "
+                         f"window's 'X1 Y1 Flag1 …'), found '{shown(' '.join(table.header), 40)}'")
     tracks = {}
     for index, column in enumerate(header):
         match = re.fullmatch(r"X(\d+)", column)
@@ -81,7 +95,7 @@ def read_mtrack2(path, lines, options):
         raise InputError(f"{name}: the MTrack2 table has no track with positions (columns X1, Y1, …); check the export")
     number = pick_track(path, tracks, options.track_id, "track")
     chosen = "given" if options.track_id is not None else f"the most ball-like of {len(tracks)}"
-    return _finish(path, "mtrack2", *tracks[number], options, [f"MTrack2 track {number} ({chosen}) [px, y down]"])
+    return _finish(path, "mtrack2", *tracks[number], options, [f"{what} track {number} ({chosen}) [px, y down]"])
 
 
 def read_trackmate(path, lines, options):

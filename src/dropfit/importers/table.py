@@ -16,11 +16,13 @@ from __future__ import annotations
 
 import csv
 import re
+import shlex
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from ..errors import InputError, shown, shown_path
+from ..files import decoded_text
 from .base import LENGTH_UNITS_M, TIME_UNITS_S, ImportedTrack, frame_times, quoted, \
     unique_frames
 
@@ -162,14 +164,22 @@ def split(line, separator):
 
 
 def text_lines(path, raw):
-    """The non-blank lines of a text file (UTF-8, a byte-order mark dropped; ``#`` comments kept out)."""
-    text = raw.decode("utf-8", errors="replace").removeprefix("\ufeff")
-    return [line.rstrip("\r\n") for line in text.splitlines() if line.strip() and not line.lstrip().startswith("#")]
+    """The non-blank lines of a text file (``#`` comments kept out), and its encoding
+    (:func:`dropfit.files.decoded_text`: UTF-8, else Windows-1252)."""
+    text, encoding = decoded_text(raw)
+    lines = [line.rstrip("\r\n") for line in text.splitlines() if line.strip() and not line.lstrip().startswith("#")]
+    return lines, encoding
 
 
 def _numeric_share(fields, decimal_comma):
     filled = [field for field in fields if field.strip()]
     return sum(_is_number(field, decimal_comma) for field in filled) / max(len(filled), 1)
+
+
+def _trimmed(fields, width):
+    """A header's ``fields`` without empty ones past the data's ``width`` (a header ending in a separator, as
+    MTrack2 writes it)."""
+    return fields[:width] if not any(field.strip() for field in fields[width:]) else fields
 
 
 def _layout(lines, separator):
@@ -195,7 +205,7 @@ def _layout(lines, separator):
             width = max(len(split_lines[i]) for i in range(start, end))
             header = None
             for above in range(start - 1, -1, -1):
-                if len(split_lines[above]) != width:
+                if len(_trimmed(split_lines[above], width)) != width:
                     break
                 header = above
             numbers = sum(_is_number(f, decimal_comma) for fields in split_lines[start:end] for f in fields)
@@ -228,10 +238,11 @@ def read_table(path, lines):
     separator = max(found, key=lambda sep: (found[sep][3], len(split(lines[found[sep][0]], sep)),
                                             -list(SEPARATORS).index(sep)))
     header_index, start, decimal_comma, _, end, _ = found[separator]
-    header = [field.strip().strip('"').strip() for field in split(lines[header_index], separator)]
+    rows = [split(line, separator) for line in lines[start:end]]
+    header = [field.strip().strip('"').strip()
+              for field in _trimmed(split(lines[header_index], separator), max(map(len, rows)))]
     between = [split(line, separator) for line in lines[header_index + 1: start]]
     units_row = next((fields for fields in between if sum(normal_unit(f) is not None for f in fields) >= 2), None)
-    rows = [split(line, separator) for line in lines[start:end]]
     return Table(str(path), header, rows, separator, decimal_comma, lines[:header_index], units_row)
 
 
@@ -297,8 +308,9 @@ def choose_columns(table, columns, mapping=None, run=None):
         raise InputError(f"{name}: cannot tell which column is the time among {quoted(table.header)}; name it with "
                          f"--columns time=COL[s],y=COL[m]")
     if "y" not in chosen and "distance" not in chosen:
+        time = columns[chosen.get("time", chosen.get("frame"))].header
         raise InputError(f"{name}: cannot tell which column is the height among {quoted(table.header)}; name it with "
-                         f"--columns time={columns[chosen.get('time', chosen.get('frame'))].header}[s],y=COL[m]")
+                         f"--columns {shlex.quote(f'time={shown(time, 60)}[s],y=COL[m]')}")
     if "y" in chosen:
         chosen.pop("distance", None)
     return chosen
@@ -351,8 +363,8 @@ def track_from_table(table, format_name, options, default_time_unit=None, defaul
     unit = units[role] or default_length_unit
     if unit is None:
         raise InputError(f"{name}: the {ROLE_WORDS[role]} column '{shown(table.header[chosen[role]], 30)}' names no "
-                         f"unit; give it with --columns, e.g. y={shown(table.header[chosen[role]], 30)}[cm] (m, cm, "
-                         f"mm or px)")
+                         f"unit; give it with --columns, e.g. {shlex.quote(f'y={shown(table.header[chosen[role]], 60)}[cm]')} "
+                         f"(m, cm, mm or px)")
     if unit not in LENGTH_UNITS_M and unit != "px":
         raise InputError(f"{name}: the {ROLE_WORDS[role]} column '{shown(table.header[chosen[role]], 30)}' is in "
                          f"{unit}, not a length; name the height column with --columns y=COL[m]")

@@ -30,7 +30,7 @@ import numpy as np
 
 from ..errors import InputError, shown, shown_path
 from .base import LENGTH_UNITS_M, ImportedTrack, pick_track
-from .table import describe, track_from_table
+from .table import Table, describe, parse_column, read_table, split, track_from_table
 
 
 @dataclass
@@ -257,9 +257,52 @@ def _whole_rate_cut_to(step_ms):
     return min(rates, key=lambda rate: (rate % 5 != 0, abs(1000 / rate - step_ms)))
 
 
-def read_data_table(table, options):
-    """Tracker's exported data (a track name line, then ``t x y``): time in s and lengths in m unless named."""
+def read_data_table(table, options, which=""):
+    """Tracker's exported data (a track name line, then ``t x y``): time in s and lengths in m unless named;
+    ``which`` says how the track was chosen among several."""
     track = track_from_table(table, "tracker", options, default_time_unit="s", default_length_unit="m")
     if table.preamble:
-        track.mapping += f" (track '{shown(table.preamble[-1].strip(), 30)}')"
+        track.mapping += f" (track '{shown(table.preamble[-1].strip(), 30)}'{which})"
     return track
+
+
+def track_groups(lines):
+    """The tracks of Tracker's data table of several tracks, or None for another table.
+
+    Such a table names each track once over its columns (``mass A<tab><tab><tab>mass B<tab><tab>``), then
+    gives ``t x y`` (or the columns chosen in Tracker) under each name, ``t`` first.
+
+    Returns
+    -------
+    (str, list of (str, int, int)) or None
+        The separator and each track's name, first and past-last column.
+    """
+    if len(lines) < 3:
+        return None
+    for separator in ("\t", ",", ";"):
+        names, header = split(lines[0], separator), split(lines[1], separator)
+        starts = [i for i, field in enumerate(header) if parse_column(field).name == "t"]
+        named = [i for i, name in enumerate(names) if name.strip().strip('"').strip()]
+        if len(starts) >= 2 and starts[0] == 0 and named == starts:
+            ends = starts[1:] + [len(header)]
+            return separator, [(names[i].strip().strip('"').strip(), i, end) for i, end in zip(starts, ends)]
+    return None
+
+
+def read_tracks_table(path, lines, options):
+    """Tracker's data table of several tracks (:func:`track_groups`) → :class:`ImportedTrack` of one:
+    ``options.track_id`` (counted from 1, left to right) or the one that moves like a dropped ball."""
+    _, groups = track_groups(lines)
+    table = read_table(path, lines[1:])
+    tracks = {}
+    for number, (name, start, end) in enumerate(groups, 1):
+        rows = [row[start:end] for row in table.rows if len(row) > start and row[start].strip()]  # its own times
+        if rows:
+            tracks[number] = Table(table.path, table.header[start:end], rows, table.separator, table.decimal_comma,
+                                   [name], table.units_row[start:end] if table.units_row else None)
+    if not tracks:
+        raise InputError(f"{shown_path(path)}: no track of the Tracker table has a time; export the data again")
+    read = {number: read_data_table(group, options) for number, group in tracks.items()}
+    number = pick_track(path, {k: (t.time_s, t.x, t.y) for k, t in read.items()}, options.track_id, "track")
+    which = ", given" if options.track_id is not None else f", the most ball-like of {len(read)}"
+    return read_data_table(tracks[number], options, which)
