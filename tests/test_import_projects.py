@@ -221,7 +221,8 @@ def test_real_photron_clip_is_tracked_in_every_frame():
     assert np.mean(steps) == pytest.approx(MRAW_STEP_PX, abs=0.05)
     assert np.all(np.abs(steps - MRAW_STEP_PX) < MRAW_STEP_TOL_PX + 0.1)
     assert read_track(cihx.with_suffix(".mraw")).time_s.size == 15  # the .mraw finds its .cihx
-    with pytest.raises(InputError, match=r"ball_12bit.cihx: no bounce found"):
+    with pytest.raises(InputError, match=r"ball_12bit.cihx: no bounce found .*: a px track is scaled from its flights' "
+                                         r"curvature, which needs a bounce; give the scale with --scale-m-per-px"):
         trajectory_from_log(cihx)
     scale = -1e-4  # m/px, given (image rows point down)
     trajectory = trajectory_from_log(cihx, scale_m_per_px=scale)

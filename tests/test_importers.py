@@ -192,6 +192,18 @@ def test_motion_detector_distance_becomes_height(name, writer, options, expected
     assert "where the ball comes to rest" in found.notes[-1]
 
 
+def test_a_sensor_height_below_the_distances_is_refused(tmp_path):
+    """A sensor height smaller than the distances it measured would put the ball below the floor (negative
+    heights were read without a word): refused in one line, naming the farthest distance."""
+    time, height = truth()
+    path = tmp_path / "low.csv"
+    path.write_text(_capstone(time, SENSOR_HEIGHT_M - height))
+    farthest = SENSOR_HEIGHT_M - np.min(height)
+    with pytest.raises(InputError, match=rf"low.csv: the distances reach {farthest:.3g} m, more than the sensor "
+                                         r"height 0.5 m given: the ball would be below the floor"):
+        read_track(path, ImportOptions(sensor_height_m=0.5))
+
+
 def test_several_runs_need_a_choice(tmp_path):
     time, height = truth()
     path = tmp_path / "runs.csv"

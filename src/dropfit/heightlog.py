@@ -383,7 +383,11 @@ def flight_acceleration(time_s, height_px, source="log", nominal_drag_k_per_m=0.
     from .analysis.segmentation import CONTACT_CLEARANCE_S, free_flights
 
     sign = vertical_sign(time_s, height_px)
-    found = segment(time_s - time_s[0], sign * height_px, source)
+    try:
+        found = segment(time_s - time_s[0], sign * height_px, source)
+    except InputError as error:  # (a fall without a bounce: a high-speed clip of the last millimetres)
+        raise InputError(f"{error}: a px track is scaled from its flights' curvature, which needs a bounce; give the "
+                         f"scale with --scale-m-per-px (negative for image rows, which point down)") from None
     t, y = found.time, found.height
     clear = max(1, int(round(CONTACT_CLEARANCE_S / float(np.median(np.diff(t))))))
     # the flights from the release to the last impact (the one after it may end in a hand or at rest),

@@ -59,6 +59,13 @@ def height_from_distance(path, track, sensor_height_m=None):
         raise InputError(f"{shown_path(path)}: a distance from a sensor in px cannot be a height; give it in m, cm or mm")
     distance = track.y * LENGTH_UNITS_M[track.unit]
     if sensor_height_m is not None:
+        finite = distance[np.isfinite(distance)]
+        farthest = float(np.percentile(finite, 99.5)) if finite.size else 0.0  # (a stray reading left out)
+        if farthest > sensor_height_m + REST_TOLERANCE_M:
+            raise InputError(f"{shown_path(path)}: the distances reach {farthest:.3g} m, more than the sensor height "
+                             f"{sensor_height_m:g} m given: the ball would be below the floor; give the sensor's "
+                             f"height above the floor with --sensor-height-m, or leave it out to take the floor "
+                             f"where the ball comes to rest")
         note = f"height = sensor height {sensor_height_m:g} m − distance"
         return dataclasses.replace(track, y=sensor_height_m - distance, unit="m", notes=track.notes + [note])
     if vertical_sign(track.time_s, distance) > 0:  # the bounces point up: it is a height already
