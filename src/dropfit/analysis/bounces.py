@@ -207,6 +207,11 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
         notes.append(f"impact {unresolved + 1}: its rebound rises less than {HOP_RESOLUTION_IN_NOISE:g} noise standard "
                      f"deviations above the contact height, below the resolution; the bounce sequence ends before it")
         bounds = fit.bounds[: unresolved + 1]
+    if fit.quantities.n_impacts == 0:  # every cut together can leave one flight
+        cuts = [note for note in notes + cut if "sequence ends before" in note]
+        if fit.misfit_cut is not None:
+            cuts.append(f"flight {fit.misfit_cut}: its residuals are far larger than the noise")
+        raise InputError(f"{source}: no impact is left to measure: {'; '.join(cuts) or 'one flight only'}")
     # the free fall starts where flight 0 does (at its apex when the ball left the hand at rest)
     release_time = float(fit.bounds[0][0]) + origin
     notes = [note for note in notes if not note.startswith("the ball was held")]

@@ -79,10 +79,12 @@ HISTORY_FRAMES = 6
 MIN_RADII_FOR_SPREAD = 4
 #: A ball merged with its shadow (``shaded``) has its radius fitted to its lit side in its first frames
 #: with a good fit (RMS residual at most MAX_PARTIAL_FIT_RMS_PX); from this many barely moving ones on, their
-#: median is held (a held radius fixes the centre of a half-circle far better; a 30 Hz clip has about three
-#: such frames at an apex). Held apart from the ``ok`` balls' radius: the lit side's edge is not where the
-#: coverage of a whole ball crosses one half.
-SHADED_RADII = 3
+#: median is held (a held radius fixes the centre of a half-circle far better). Held apart from the ``ok``
+#: balls' radius: the lit side's edge is not where the coverage of a whole ball crosses one half. Seven: a
+#: 30 Hz clip has about three such frames at an apex, and the first three, beside the hand that let the ball
+#: go, held 14.2 px for phonesim's 15 px white ball (seeds 5 and 6 of 8): its lit sides then fitted poorly,
+#: and the track, judged poor, was redone from a flight of the hand's pieces.
+SHADED_RADII = 7
 #: A ball that moved less than this many of its radii a frame in each of its last two steps is barely blurred;
 #: its size is learnt from such frames. A blurred ball's lit side is not a circle's and fits a radius several per cent
 #: short (a 15 px ball streaked over half its radius: 14.0 px); its coverage in a colour channel at half
@@ -218,9 +220,12 @@ class BallTracker:
 
     @property
     def _shaded_radius_px(self):
-        """The radius a shaded ball's lit side is fitted with, px: the median of the first ``SHADED_RADII``
-        fitted ones once there are as many, else None (fitted)."""
-        return float(np.median(self._shaded_radii)) if len(self._shaded_radii) >= SHADED_RADII else None
+        """The radius a shaded ball's lit side is fitted with, px: the upper quartile of the first
+        ``SHADED_RADII`` fitted ones once there are as many, else None (fitted). A lit side cut by blur or by
+        the hand beside it fits short, never long."""
+        if len(self._shaded_radii) < SHADED_RADII:
+            return None
+        return float(np.percentile(self._shaded_radii, 75))
 
     def _recent_history(self):
         """(frame index, x, y) of the last found balls, of the last ``HISTORY_FRAMES`` frames."""
@@ -428,7 +433,7 @@ class BallTracker:
             result = replace(result, quality=QUALITY_OCCLUDED)
         if (result.quality == QUALITY_SHADED and self._shaded_radius_px is None
                 and result.fit_rms_px <= MAX_PARTIAL_FIT_RMS_PX):
-            self._shaded_fits = (self._shaded_fits + [result.radius_px])[-SHADED_RADII:]
+            self._shaded_fits = (self._shaded_fits + [result.radius_px])[-3:]
             # judged by the last step alone: asking for two still steps held another radius for phonesim's white
             # ball (seed 3, half size), and with it the tracker followed a round shadow at the floor for 6 frames
             if len(self._recent_history()) >= 1 and self._recent_step_px() <= STILL_RADII * result.radius_px:
