@@ -535,6 +535,8 @@ def bouncing_ball(time_s, drop_height_m, e, g=9.81):
         height[inside] = speed * tau - 0.5 * g * tau ** 2
         start, speed = start + duration, e * speed
     return height
+
+
 def with_sound_track(video_path, out_path, samples, rate_hz, sound_start_s=0.0):
     """Copy a video's frames (re-encoded with H.264, little loss) into ``out_path`` (.mov) with a mono 16-bit PCM
     sound track of ``samples`` (full scale 1) whose first sample is stamped ``sound_start_s`` (s) on the

@@ -204,6 +204,21 @@ def test_a_sensor_height_below_the_distances_is_refused(tmp_path):
         read_track(path, ImportOptions(sensor_height_m=0.5))
 
 
+def test_a_clean_height_log_at_30_hz_points_up(tmp_path):
+    """A height log at 30 Hz with 0.2 mm of noise (times to the ms, heights to 0.1 mm): its flights curve by 11 mm a step,
+    which the axis test took for impacts, every one downwards, so the heights were turned over and refused
+    (the audit's file: "the flights fall with -9.805 m/s²"; this one: "no bounce with at least 5 samples").
+    Read as heights, e comes back."""
+    e, release_s = 0.8, 0.17  # held still before the release, and ending in a flight
+    time = np.arange(0.0, 3.0, 1 / 30)  # (written to the ms)
+    height = np.where(time < release_s, DROP_M, bouncing_ball(time - release_s, DROP_M, e))
+    height += np.random.default_rng(11).normal(0.0, 2e-4, time.size)
+    path = tmp_path / "clean.csv"
+    path.write_text("Time (s),Position (m)\n" + rows(",", time, height, formats=(".3f", ".4f")))
+    result = analyse_recording(path)
+    assert result.params["e1"].value == pytest.approx(e, abs=E_TOL)
+
+
 def test_several_runs_need_a_choice(tmp_path):
     time, height = truth()
     path = tmp_path / "runs.csv"
