@@ -280,6 +280,26 @@ def test_tracker_data_table_carries_x(tmp_path):
     np.testing.assert_allclose(trajectory["x"].values, x, atol=ROUNDING_M)
 
 
+@pytest.mark.parametrize("name_line, header, first", [
+    ("mass A\t\t\n", "t\tx\ty", None),  # the name line padded with tabs (saved from a spreadsheet)
+    ("mass A\n", "step\tt\ty", "step"),  # Tracker's step (or frame) column chosen first
+    ("mass A\n", "frame\tt\ty", "frame"),
+])
+def test_tracker_data_tables_as_saved(tmp_path, name_line, header, first):
+    """Variants of Tracker's export seen in use: both were refused ("cannot tell which column is the time
+    among 'mass A', '', ''", and "the height column 'y' names no unit"); read in m, as Tracker writes."""
+    time, height = truth()
+    if first:
+        columns, formats = (np.arange(time.size), time, height), (".0f", ".3f", ".5f")
+    else:
+        columns, formats = (time, np.full(time.size, 0.1), height), (".3f", ".3f", ".5f")
+    path = tmp_path / "ball.txt"
+    path.write_text(name_line + header + "\n" + rows("\t", *columns, formats=formats))
+    trajectory = trajectory_from_log(path)
+    assert trajectory.attrs["import_format"] == "tracker"
+    np.testing.assert_allclose(trajectory["y"].values, height, atol=ROUNDING_M)
+
+
 def test_tracker_table_of_two_tracks_reads_the_one_chosen_or_the_ball(tmp_path):
     """Tracker exports several tracks side by side: a line naming each over its columns ('mass A<tab><tab><tab>mass
     B<tab><tab>'), then t x y under each. The ball (listed second here) is picked, or the track --track-id names

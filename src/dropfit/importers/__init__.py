@@ -130,10 +130,13 @@ def _is_tracker_project(path, raw):
 
 
 def _is_tracker_table(table):
-    """Whether a table is Tracker's data export: ``t`` first, then ``x`` or ``y``, after a line naming the track
-    or separated by tabs (Tracker's default)."""
+    """Whether a table is Tracker's data export: ``t`` first (or after Tracker's ``step`` or ``frame``), then
+    ``x`` or ``y``, after a line naming the track or separated by tabs (Tracker's default)."""
     names = [field.strip().lower() for field in table.header]
-    return names[0] == "t" and bool({"x", "y"} & set(names[1:])) and (bool(table.preamble) or table.separator == "\t")
+    if names[:1] in (["step"], ["frame"]):
+        names = names[1:]
+    return names[:1] == ["t"] and bool({"x", "y"} & set(names[1:])) and (
+        bool(table.preamble) or table.separator == "\t")
 
 
 def _is_native(lines):

@@ -182,6 +182,11 @@ def _trimmed(fields, width):
     return fields[:width] if not any(field.strip() for field in fields[width:]) else fields
 
 
+def _filled(fields):
+    """How many of ``fields`` are not blank."""
+    return sum(bool(field.strip().strip('"').strip()) for field in fields)
+
+
 def _layout(lines, separator):
     """(header index, data start, decimal comma, data rows, data end, numbers) of ``lines`` split by
     ``separator``, or None.
@@ -205,8 +210,9 @@ def _layout(lines, separator):
             width = max(len(split_lines[i]) for i in range(start, end))
             header = None
             for above in range(start - 1, -1, -1):
-                if len(_trimmed(split_lines[above], width)) != width:
-                    break
+                if len(_trimmed(split_lines[above], width)) != width or header is not None and (
+                        _filled(split_lines[above]) == 1 < _filled(split_lines[header])):
+                    break  # (a title padded with separators, over the header: Tracker's track name)
                 header = above
             numbers = sum(_is_number(f, decimal_comma) for fields in split_lines[start:end] for f in fields)
             if header is not None and (best is None or (end - start, numbers) > (best[3], best[5])):
