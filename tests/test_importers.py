@@ -519,6 +519,34 @@ def test_kinovea_style_export_carries_x(tmp_path):
     np.testing.assert_allclose(trajectory["x"].values, x, atol=6e-5)
 
 
+def _clock(seconds, frames_per_second=None):
+    """``h:mm:ss.ss`` of a time in s, or ``h:mm:ss:ff`` counting frames at ``frames_per_second``."""
+    whole = int(seconds)
+    head = f"{whole // 3600}:{whole // 60 % 60:02d}:{whole % 60:02d}"
+    if frames_per_second:
+        return f"{head}:{round((seconds - whole) * frames_per_second):02d}"
+    return f"{head}.{round((seconds - whole) * 100):02d}"
+
+
+@pytest.mark.parametrize("fps, written", [(None, "0:00:01.28"), (50.0, "0:00:01:13")])
+def test_clock_times_are_read(tmp_path, fps, written):
+    """Kinovea writes time as a clock (h:mm:ss.ss) or a timecode counting frames (h:mm:ss:ff, which needs
+    --fps); both were refused ("has a value that is not a number"). Read in s, e comes back."""
+    time, height = truth(sample_rate_hz=50.0)
+    clocks = [_clock(t, fps) for t in time]
+    assert written in clocks
+    path = tmp_path / "kinovea.csv"
+    path.write_text('"Time";"Y (cm)"\n' + "".join(f'"{c}";"{h * 100:.3f}"\n'.replace(".", ",")
+                                                   for c, h in zip(clocks, height)))
+    if fps:
+        with pytest.raises(InputError, match=r"kinovea.csv: the time column 'Time' is a timecode with frames "
+                                             r"\(h:mm:ss:ff\); give the frame rate with --fps"):
+            read_track(path)
+    track = read_track(path, ImportOptions(fps=fps))
+    np.testing.assert_allclose(track.time_s, time, atol=0.005)
+    assert analyse_recording(path, fps=fps).params["e1"].value == pytest.approx(E_TRUE, abs=E_TOL)
+
+
 @pytest.mark.parametrize("content, options, message", [
     ("Zeit (s);Höhe (m)\n0,00;1,0\n;0,99\n0,02;0,98\n", {}, r"a time is missing or not finite \(sample 2\); every "
                                                            r"sample needs a time"),

@@ -111,6 +111,34 @@ class Table:
         return values
 
 
+#: A time of day or a timecode, as Kinovea writes time: ``m:ss``, ``h:mm:ss`` with decimals of a second, or
+#: ``h:mm:ss:ff`` (ff: frames).
+_CLOCK = re.compile(r"^(\d+):(\d{1,2})(?::(\d{1,2}))?(?:[.,](\d+)|:(\d{1,3}))?$")
+
+
+def clock_seconds(path, texts, what, fps=None):
+    """Times written as a clock (:data:`_CLOCK`) → s, or None when ``texts`` are not all clock times.
+
+    ``h:mm:ss:ff`` counts frames after the seconds: it needs ``fps`` (frames/s), else InputError.
+    """
+    matches = [_CLOCK.match(text.strip().strip('"').strip()) for text in texts if text.strip().strip('"').strip()]
+    if not matches or not all(matches) or not any(":" in m.group(0) for m in matches):
+        return None
+    seconds = []
+    for match in matches:
+        first, second, third, fraction, frame = match.groups()
+        hours, minutes, whole = (int(first), int(second), int(third)) if third is not None else \
+            (0, int(first), int(second))
+        value = 3600 * hours + 60 * minutes + whole + (float(f"0.{fraction}") if fraction else 0.0)
+        if frame is not None:
+            if not fps:
+                raise InputError(f"{shown_path(path)}: the time column '{shown(what, 30)}' is a timecode with frames "
+                                 f"(h:mm:ss:ff); give the frame rate with --fps")
+            value += int(frame) / fps
+        seconds.append(value)
+    return np.array(seconds)
+
+
 def normal_unit(text):
     """A unit's name as :data:`TIME_UNITS_S` and :data:`LENGTH_UNITS_M` spell it (``px`` too), or None."""
     unit = str(text).strip().strip("\"'()[]").strip()
@@ -359,8 +387,14 @@ def track_from_table(table, format_name, options, default_time_unit=None, defaul
         if unit not in TIME_UNITS_S:
             raise InputError(f"{name}: the time column '{shown(table.header[chosen['time']], 30)}' is in {unit}, not a "
                              f"unit of time; name the right column with --columns time=COL[s]")
-        time = table.numbers(chosen["time"]) * TIME_UNITS_S[unit]
-        parts.append(f"time '{table.header[chosen['time']]}' [{unit}{'' if units['time'] else ', assumed'}]")
+        texts = [row[chosen["time"]] if chosen["time"] < len(row) else "" for row in table.rows]
+        clock = clock_seconds(table.path, texts, table.header[chosen["time"]], options.fps)
+        if clock is not None and clock.size == len(table.rows):
+            time = clock
+            parts.append(f"time '{table.header[chosen['time']]}' [clock, h:mm:ss]")
+        else:
+            time = table.numbers(chosen["time"]) * TIME_UNITS_S[unit]
+            parts.append(f"time '{table.header[chosen['time']]}' [{unit}{'' if units['time'] else ', assumed'}]")
         frames = None
     else:
         frames = table.numbers(chosen["frame"])
