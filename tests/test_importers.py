@@ -219,6 +219,20 @@ def test_a_clean_height_log_at_30_hz_points_up(tmp_path):
     assert result.params["e1"].value == pytest.approx(e, abs=E_TOL)
 
 
+def test_heights_measured_downwards_are_named_so(tmp_path):
+    """Heights measured down from above under a plain name (y (m) holding 1.2 m − h) fall with −g: the refusal
+    said "check the units"; it says the heights point down and what reads them, which does."""
+    time, height = truth()
+    path = tmp_path / "down.csv"
+    path.write_text("t (s),y (m)\n" + rows(",", time, 1.2 - height, formats=(".3f", ".5f")))
+    with pytest.raises(InputError, match=r"down.csv: the flights fall with -9.\d+ m/s², g upwards: the heights point "
+                                         r"down \(a distance from above\); name the column a distance with --columns "
+                                         r"distance=COL\[m\]"):
+        analyse_recording(path)
+    result = analyse_recording(path, columns="time=t (s),distance=y (m)")
+    assert result.params["e1"].value == pytest.approx(E_TRUE, abs=E_TOL)
+
+
 def test_several_runs_need_a_choice(tmp_path):
     time, height = truth()
     path = tmp_path / "runs.csv"

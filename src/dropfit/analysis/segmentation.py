@@ -495,6 +495,10 @@ def check_free_fall(t, y, bounds, g, source):
     pieces = [(t[mask], y[mask]) for mask in inside]
     kept = free_flights(pieces, g)
     acceleration, _ = shared_acceleration(pieces[: max(kept, 1)])
+    if abs(acceleration / g + 1.0) < FREE_FALL_TOLERANCE:  # g, upwards: heights measured down
+        raise NotFreeFallError(f"{source}: the flights fall with {acceleration:.4g} m/s², g upwards: the heights point "
+                               f"down (a distance from above); name the column a distance with --columns "
+                               f"distance=COL[m] (or give --sensor-height-m), or give heights up", acceleration)
     if not abs(acceleration / g - 1.0) < FREE_FALL_TOLERANCE:
         raise NotFreeFallError(f"{source}: the flights fall with {acceleration:.4g} m/s², not g = {g:g} m/s²: check "
                                f"the units of time and height in the column names (or the scale of a px log)",
