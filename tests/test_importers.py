@@ -233,6 +233,15 @@ def test_heights_measured_downwards_are_named_so(tmp_path):
     assert result.params["e1"].value == pytest.approx(E_TRUE, abs=E_TOL)
 
 
+@pytest.mark.parametrize("header", ["time_s,height_m", "Time (s),Height (m)", "Zeit (s);Höhe (m)", "t\tx\ty"])
+def test_a_header_without_samples_says_so(tmp_path, header):
+    """A table that is its header alone was refused for its column names ("expected one column y_m …")."""
+    path = tmp_path / "empty.csv"
+    path.write_text(header + "\n")
+    with pytest.raises(InputError, match=r"^\S*empty.csv: the header is there but there are no samples$"):
+        read_track(path)
+
+
 def test_several_runs_need_a_choice(tmp_path):
     time, height = truth()
     path = tmp_path / "runs.csv"

@@ -86,7 +86,7 @@ def read_track(path, options=None):
 def _read_text(path, lines, options):
     """A text file's track, from its ``lines``, its format found or named in ``options``."""
     from . import imagej, sensors, tracker
-    from .table import MAX_LINE_CHARACTERS, read_table, track_from_table
+    from .table import MAX_LINE_CHARACTERS, SEPARATORS, read_table, split, track_from_table
 
     if options.format == "dropfit" or options.format is None and (
             max(map(len, lines[:50]), default=0) > MAX_LINE_CHARACTERS or _is_native(lines)):
@@ -100,6 +100,8 @@ def _read_text(path, lines, options):
     try:
         table = read_table(path, lines)
     except InputError:
+        if len(lines) == 1 and any(len(split(lines[0], separator)) >= 2 for separator in SEPARATORS):
+            raise InputError(f"{shown_path(path)}: the header is there but there are no samples") from None
         if options.format is None:
             return _native(path)  # its own checks say best what is wrong with a file that is no table
         raise
