@@ -233,6 +233,16 @@ def test_heights_measured_downwards_are_named_so(tmp_path):
     assert result.params["e1"].value == pytest.approx(E_TRUE, abs=E_TOL)
 
 
+def test_a_line_of_notes_over_the_header_is_not_the_header(tmp_path):
+    """A "key,value" line above the header (as wide as the table) was taken for the header ("cannot tell which
+    column is the time among 'Experiment', 'Drop 3'"); a header whose names carry units is the header."""
+    time, height = truth()
+    path = tmp_path / "notes.csv"
+    path.write_text("Experiment,Drop 3\n\nTime (s),Height (m)\n" + rows(",", time, height, formats=(".3f", ".5f")))
+    track = read_track(path)
+    np.testing.assert_allclose(track.y, height, atol=ROUNDING_M)
+
+
 @pytest.mark.parametrize("header", ["time_s,height_m", "Time (s),Height (m)", "Zeit (s);Höhe (m)", "t\tx\ty"])
 def test_a_header_without_samples_says_so(tmp_path, header):
     """A table that is its header alone was refused for its column names ("expected one column y_m …")."""

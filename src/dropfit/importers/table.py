@@ -215,6 +215,11 @@ def _filled(fields):
     return sum(bool(field.strip().strip('"').strip()) for field in fields)
 
 
+def _with_units(fields):
+    """How many of ``fields`` name a column with its unit (``Time (s)``, ``height_m``), not a bare unit."""
+    return sum(parse_column(field).unit is not None and normal_unit(field) is None for field in fields)
+
+
 def _layout(lines, separator):
     """(header index, data start, decimal comma, data rows, data end, numbers) of ``lines`` split by
     ``separator``, or None.
@@ -239,8 +244,11 @@ def _layout(lines, separator):
             header = None
             for above in range(start - 1, -1, -1):
                 if len(_trimmed(split_lines[above], width)) != width or header is not None and (
-                        _filled(split_lines[above]) == 1 < _filled(split_lines[header])):
-                    break  # (a title padded with separators, over the header: Tracker's track name)
+                        _filled(split_lines[above]) == 1 < _filled(split_lines[header])
+                        or _with_units(split_lines[above]) == 0 < _with_units(split_lines[header]) - 1):
+                    # a title padded with separators (Tracker's track name), or a line of notes ("Experiment,Drop
+                    # 3") over a header whose names carry their units
+                    break
                 header = above
             numbers = sum(_is_number(f, decimal_comma) for fields in split_lines[start:end] for f in fields)
             if header is not None and (best is None or (end - start, numbers) > (best[3], best[5])):
