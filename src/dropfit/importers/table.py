@@ -226,7 +226,8 @@ def _layout(lines, separator):
 
     The data are the longest run of rows, mostly numbers, of two fields or more (of two equally long, the
     one with more numbers: decimal commas or not); the header is the first of the text rows of the same
-    width right above them (the others: short names, units).
+    width right above them (the others: short names, units), not counting, above a header, a title padded
+    with separators or a line that names no column with a unit over one whose names carry units.
     """
     best = None
     split_lines = [split(line, separator) for line in lines]
