@@ -2,6 +2,7 @@
 
 import os
 
+import dropfit  # noqa: F401  (before NumPy: one BLAS thread, as in `dropfit run` and the workflow's jobs)
 import numpy as np
 import pytest
 

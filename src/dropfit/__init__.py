@@ -8,6 +8,14 @@ evidence) with the theory checks and the ITF verdict.
 
 __version__ = "0.1.0"
 
+import os
+
+# dropfit's matrices are small: BLAS threads do not speed its fits, and they make the last digits depend on the
+# core count (a workflow job runs on one thread, `dropfit run` had two: impacts.csv differed at 1e-12). Every
+# process that imports dropfit before NumPy computes on one BLAS thread, unless the user says otherwise.
+for _variable in ("OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS"):
+    os.environ.setdefault(_variable, "1")
+
 from .analysis import BounceAnalysis, analyse_bounces
 from .errors import InputError
 from .heightlog import read_height_log, trajectory_from_log
