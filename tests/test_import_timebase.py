@@ -144,6 +144,18 @@ def test_a_quantised_sensor_may_repeat_a_height_where_the_ball_turns_or_rests(re
     assert np.isfinite(track.y).all() and not track.notes
 
 
+def test_heights_to_the_mm_in_m_repeat_without_a_duplicated_frame(tmp_path):
+    """At 1000 Hz, heights written in m to 3 decimals repeat each value a few samples where the ball is slow; a
+    one-step move reads 1.0000000000000009 mm against a smallest gap of 0.9999999999998899 mm in binary, and
+    285 repeats were made dropouts (a review's file: held, then at rest, the noise estimate 0). A move must span two
+    steps: none is."""
+    time = np.arange(5000) / 1000.0
+    height = np.where(time < 1.5, DROP_M, bouncing_ball(time - 1.5, DROP_M, 0.8))  # held, then at rest: no noise
+    path = tmp_path / "fine.csv"
+    path.write_text("Time (s),Height (m)\n" + "".join(f"{t:.3f},{y:.3f}\n" for t, y in zip(time, height)))
+    assert not read_track(path).notes
+
+
 def test_a_row_exported_twice_reads_alike_in_both_layouts(tmp_path):
     """dropfit's own log (time_s,y_m) and a named table drop a row repeated exactly, with a note (the own log
     refused it); the same time with another height is refused in both, one line naming the time."""

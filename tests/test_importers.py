@@ -355,6 +355,18 @@ def test_tracker_table_of_two_tracks_reads_the_one_chosen_or_the_ball(tmp_path):
         read_track(path, ImportOptions(track_id=3))
 
 
+def test_a_tracker_table_with_a_track_of_no_position_reads_the_ball(tmp_path):
+    """A protractor's t θ beside the ball's t x y (a review's file): the whole table was refused ("cannot tell
+    which column is the height among 't', 'θ'"); the ball is read, and only --track-id 2 is refused."""
+    time, height = truth()
+    body = "".join(f"{t:.3f}\t0.01000\t{y:.5f}\t{t:.3f}\t30.000\n" for t, y in zip(time, height))
+    path = tmp_path / "angle.txt"
+    path.write_text("mass A\t\t\tprotractor A\t\nt\tx\ty\tt\tθ\n" + body, encoding="utf-8")
+    np.testing.assert_allclose(read_track(path).y, height, atol=ROUNDING_M)
+    with pytest.raises(InputError, match=r"angle.txt: cannot tell which column is the height among 't', 'θ'"):
+        read_track(path, ImportOptions(track_id=2))
+
+
 # --- ImageJ: MTrack2 and TrackMate -----------------------------------------------------------------
 
 FPS = 50.0  # frames/s of the frame-indexed fixtures

@@ -100,7 +100,8 @@ def _read_text(path, lines, options):
     try:
         table = read_table(path, lines)
     except InputError:
-        if len(lines) == 1 and any(len(split(lines[0], separator)) >= 2 for separator in SEPARATORS):
+        if len(lines) == 1 and any(character.isalpha() for character in lines[0]) and any(
+                len(split(lines[0], separator)) >= 2 for separator in SEPARATORS):  # names, not numbers
             raise InputError(f"{shown_path(path)}: the header is there but there are no samples") from None
         if options.format is None:
             return _native(path)  # its own checks say best what is wrong with a file that is no table

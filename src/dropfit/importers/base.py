@@ -186,7 +186,9 @@ def drop_repeated_positions(track):
         repeat = repeat[(repeat >= 2) & (repeat + 1 < y.size)]
         finite = np.unique(y[np.isfinite(y)])
         step = float(np.min(np.diff(finite))) if finite.size > 1 else 0.0  # the quantisation, or less
-        moved = max(step, 5.0 * estimate_noise(y[np.isfinite(y)])) if finite.size > 3 else step
+        # two steps or more (1.5 of them: a height written to 1 mm steps 0.9999999999998899 mm in binary)
+        two_steps = 1.5 * step
+        moved = max(two_steps, 5.0 * estimate_noise(y[np.isfinite(y)])) if finite.size > 3 else two_steps
         into, out_of = y[repeat - 1] - y[repeat - 2], y[repeat + 1] - y[repeat]
         repeat = repeat[(np.abs(into) > moved) & (np.abs(out_of) > moved) & (np.sign(into) == np.sign(out_of))]
     if repeat.size == 0:

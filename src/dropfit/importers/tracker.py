@@ -302,7 +302,14 @@ def read_tracks_table(path, lines, options):
                                    [name], table.units_row[start:end] if table.units_row else None)
     if not tracks:
         raise InputError(f"{shown_path(path)}: no track of the Tracker table has a time; export the data again")
-    read = {number: read_data_table(group, options) for number, group in tracks.items()}
+    read, refused = {}, {}
+    for number, group in tracks.items():
+        try:
+            read[number] = read_data_table(group, options)
+        except InputError as error:  # a track of no position (a protractor's t θ) beside the ball's
+            refused[number] = error
+    if options.track_id in refused or not read:
+        raise refused.get(options.track_id, next(iter(refused.values())))
     number = pick_track(path, {k: (t.time_s, t.x, t.y) for k, t in read.items()}, options.track_id, "track")
     which = ", given" if options.track_id is not None else f", the most ball-like of {len(read)}"
     return read_data_table(tracks[number], options, which)
