@@ -192,6 +192,20 @@ def test_motion_detector_distance_becomes_height(name, writer, options, expected
     assert "where the ball comes to rest" in found.notes[-1]
 
 
+def test_a_motion_detector_held_for_seconds_points_the_right_way(tmp_path):
+    """A quiet motion detector at 20 Hz, to the mm, the ball held 5 s under it before the drop (a review's case):
+    the rest outnumbered the flights, the axis test took the rest's zero curvature for the flights', turned the
+    distances into heights the wrong way and refused ("g upwards … name the column a distance", though it is
+    one). Read as distances down from the sensor, e comes back."""
+    hold_s = 5.0
+    time = np.arange(0.0, hold_s + 2.5, 1 / 20)
+    height = np.where(time < hold_s, DROP_M, bouncing_ball(time - hold_s, DROP_M, 0.8)) + CENTRE_M
+    distance = SENSOR_HEIGHT_M - height + np.random.default_rng(5).normal(0.0, 3e-4, time.size)
+    path = tmp_path / "detector.csv"
+    path.write_text("Time (s),Distance (m)\n" + rows(",", time, distance, formats=(".3f", ".3f")))  # to the mm
+    assert analyse_recording(path).params["e1"].value == pytest.approx(0.8, abs=E_TOL)
+
+
 def test_a_sensor_height_below_the_distances_is_refused(tmp_path):
     """A sensor height smaller than the distances it measured would put the ball below the floor (negative
     heights were read without a word): refused in one line, naming the farthest distance."""

@@ -398,20 +398,26 @@ def segment(time_s, height, source="trajectory", acceleration=None):
 def vertical_sign(time_s, height):
     """+1 if the height axis points up, −1 if it points down (image rows).
 
-    Impacts are the sharpest features of a bounce log: second differences over about 10 ms that stand
-    out from the flights' (g times the step squared, the median) and, on an axis pointing up, upwards
-    (the velocity reverses upwards). A tracking jump makes large ones of both signs that cancel.
-    Without any large one (no impact in view), a dropped ball starts above its median position.
+    Every second difference (over about 10 ms) that is not free flight lies above the flights' own (g times
+    the step squared, their median) on an axis pointing up, and below it on one pointing down: an impact
+    (the velocity reverses upwards) far above, a ball at rest (no curvature) above by g times the step
+    squared. The flights' curvature is taken from the samples that move, so that a long rest does not set
+    it; a tracking jump makes large differences of both signs that cancel. Without any large one (no
+    impact in view, no rest), a dropped ball starts above its median position.
     """
     valid = np.isfinite(height)
     t, y = time_s[valid], height[valid]
     lag = max(1, int(round(0.01 / float(np.median(np.diff(t)))))) if t.size > 1 else 1
     if y.size > 2 * lag:
+        floor = 1e-12 * float(np.ptp(y))
         curvature = y[2 * lag:] - 2 * y[lag:-lag] + y[: -2 * lag]
-        # from the flights' own: at 30 Hz a clean log's flights curve by 11 mm a step, which stood out from
-        # a 0.2 mm noise as if every sample were an impact, pointing the axis down
-        curvature = curvature - np.median(curvature)
-        large = curvature[np.abs(curvature) > 10 * max(robust_sigma(curvature), 1e-12 * float(np.ptp(y)))]
+        # a clean 30 Hz log's flights curve by 11 mm a step, which stood out from a 0.2 mm noise as if every
+        # sample were an impact; a ball held for seconds made the median a rest's 0
+        moving = np.abs(y[2 * lag:] - y[: -2 * lag]) > 5 * max(robust_sigma(curvature), floor)
+        flights = curvature[moving] if np.count_nonzero(moving) >= 3 else curvature
+        centre = float(np.median(flights))
+        curvature = curvature - centre
+        large = curvature[np.abs(curvature) > 10 * max(robust_sigma(flights, centre=centre), floor)]
         if large.size and large.sum() != 0:
             return float(np.sign(large.sum()))
     return -1.0 if y[0] < np.median(y) else 1.0
