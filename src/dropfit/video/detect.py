@@ -793,10 +793,10 @@ def off_fixtures(blobs, fixtures):
             if not any(math.hypot(blob[0] - x, blob[1] - y) <= max(r, blob[2]) for x, y, r in fixtures)]
 
 
-def find_balls(frame, background, contrast, expected_radius_px=None, gain=1.0, fixtures=(), colour_bgr=None):
-    """Search a whole frame for the ball: the blobs of :func:`find_blobs` that may be it, best first: lone
-    discs and light balls merged with their shadows before other merged blobs, then the radius nearest the
-    expected one (without one, the largest: a speck of a hand's fringe is a lone disc too).
+def find_ball(frame, background, contrast, expected_radius_px=None, gain=1.0, fixtures=(), colour_bgr=None):
+    """Search a whole frame for the ball: of the blobs of :func:`find_blobs`, lone discs and light balls merged
+    with their shadows before other merged blobs, then the radius nearest the expected one (without one, the
+    largest: a speck of a hand's fringe is a lone disc too).
 
     ``fixtures`` are blobs that stay in one place in the whole clip (x, y, radius in px): blobs
     centred within a radius of one are not the ball. With the ball's colour ``colour_bgr`` (BGR
@@ -805,13 +805,15 @@ def find_balls(frame, background, contrast, expected_radius_px=None, gain=1.0, f
 
     Returns
     -------
-    list of (float, float, float, bool, bool)
-        Blobs as :func:`find_blobs` gives them, best first; empty when there is none.
+    (float, float, float, bool, bool) or None
+        As one blob of :func:`find_blobs`; None when there is none.
     """
     blobs = off_fixtures(find_blobs(frame, background, contrast, expected_radius_px, gain), fixtures)
     if colour_bgr is not None and frame.ndim == 3:
         wanted = chromaticity(colour_bgr)
         blobs = [blob for blob in blobs
                  if np.linalg.norm(chromaticity(_centre_colour(frame, blob)) - wanted) <= MAX_CHROMATICITY_DISTANCE]
-    return sorted(blobs, key=lambda blob: (blob[3] or blob[4], -abs(blob[2] - expected_radius_px)
-                                           if expected_radius_px else blob[2]), reverse=True)
+    if not blobs:
+        return None
+    return max(blobs, key=lambda blob: (blob[3] or blob[4], -abs(blob[2] - expected_radius_px)
+                                        if expected_radius_px else blob[2]))

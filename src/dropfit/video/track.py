@@ -3,7 +3,7 @@
 The camera is static, so the scene without the ball is one image, the background
 (:mod:`dropfit.video.background`). In the first frame, and whenever the ball was lost, the whole
 (downscaled) frame is searched for the foreground blob with the largest inscribed circle, preferring
-lone, roughly circular blobs (:func:`dropfit.video.detect.find_balls`). Afterwards the position is
+lone, roughly circular blobs (:func:`dropfit.video.detect.find_ball`). Afterwards the position is
 predicted from the last three positions (constant acceleration) and only a window of about four
 radii around the prediction is measured (:func:`dropfit.video.detect.measure_ball`, which gives the
 quality flags ``ok``, ``blurred``, ``partial``, ``shaded`` and ``occluded``). While the ball is measured merged
@@ -52,7 +52,7 @@ from .background import (BACKGROUND_SAMPLES, Background, background_without_ball
 from .contrast import (CHANNELS, CHROMA, GREY, Contrast, available_contrasts, contrast_of, frame_gain, hand_pixels,
                        scene_colour, skin_mask)
 from .decode import MIN_FRAMES, Progress, VideoFile, check_frame_count, check_video_file, frame_times, spread_indices
-from .detect import find_balls, measure_ball, searched_frame
+from .detect import find_ball, measure_ball, searched_frame
 from .link import extrapolated, find_flight
 from .opencv import cv2
 # the flags and the centre's correlation, kept importable from here (overlay, tests)
@@ -85,6 +85,8 @@ MIN_RADII_FOR_SPREAD = 4
 #: go, held 14.2 px for phonesim's 15 px white ball (seeds 5 and 6 of 8): its lit sides then fitted poorly,
 #: and the track, judged poor, was redone from a flight of the hand's pieces.
 SHADED_RADII = 7
+#: The last this many lit-side fits give the expected radius before any ``ok`` ball (their median).
+SHADED_FITS_KEPT = 3
 #: A ball that moved less than this many of its radii a frame in each of its last two steps is barely blurred;
 #: its size is learnt from such frames. A blurred ball's lit side is not a circle's and fits a radius several per cent
 #: short (a 15 px ball streaked over half its radius: 14.0 px); its coverage in a colour channel at half
@@ -308,11 +310,11 @@ class BallTracker:
             background = self.background.cropped(left, top, right, bottom)
         region = frame[top:bottom, left:right]
         fixtures = [(x - left, y - top, r) for x, y, r in self.contrast.fixtures]
-        found = find_balls(region, background, self.contrast, self.radius_ref_px, self._gain, fixtures,
-                           self.hints.ball_colour_bgr)
-        if not found:
+        found = find_ball(region, background, self.contrast, self.radius_ref_px, self._gain, fixtures,
+                          self.hints.ball_colour_bgr)
+        if found is None:
             return None
-        x, y, r = found[0][0] + left, found[0][1] + top, found[0][2]
+        x, y, r = found[0] + left, found[1] + top, found[2]
         result = self._measure_around(frame, (x, y), 2.0 * max(r, self.radius_ref_px or r) + WINDOW_MARGIN_PX)
         if result is not None and result.truncated:
             result = self._measure_around(frame, (result.x_px, result.y_px), 4.0 * r + 2 * WINDOW_MARGIN_PX)
@@ -433,7 +435,7 @@ class BallTracker:
             result = replace(result, quality=QUALITY_OCCLUDED)
         if (result.quality == QUALITY_SHADED and self._shaded_radius_px is None
                 and result.fit_rms_px <= MAX_PARTIAL_FIT_RMS_PX):
-            self._shaded_fits = (self._shaded_fits + [result.radius_px])[-3:]
+            self._shaded_fits = (self._shaded_fits + [result.radius_px])[-SHADED_FITS_KEPT:]
             # judged by the last step alone: asking for two still steps held another radius for phonesim's white
             # ball (seed 3, half size), and with it the tracker followed a round shadow at the floor for 6 frames
             if len(self._recent_history()) >= 1 and self._recent_step_px() <= STILL_RADII * result.radius_px:
