@@ -114,7 +114,7 @@ def test_the_command_writes_the_sheet_and_an_h264_clip_of_every_frame(analysed_c
 
 
 def test_a_refused_clip_gets_a_sheet_with_its_reason(drop, tmp_path):
-    """30 frames/s: the fall is too briefly filmed. Through the workflow's stages: measure keeps the
+    """15 frames/s: the fall is too briefly filmed. Through the workflow's stages: measure keeps the
     tracked table, analyse records the refusal, the overlay reads both."""
     video = render_drop_clip(tmp_path / "slow.avi", drop, fps=15.0).attrs["video_path"]
     out = tmp_path / "results"
@@ -123,7 +123,8 @@ def test_a_refused_clip_gets_a_sheet_with_its_reason(drop, tmp_path):
     assert main(["analyse", str(out / "trajectory.nc"), "--impacts", str(out / "impacts.csv"), "--flights",
                  str(out / "flights.csv"), "--summary", str(out / "analysis.json"), "--record-failure"]) == 0
     scene = stages.scene_from_results(out)
-    assert scene.caption[-1].startswith(f"refused: {video}: not analysable: impact 1: the flight before it lasts")
+    assert scene.caption[-1].startswith(f"refused: {video}: not analysable: ")
+    assert "film at" in scene.caption[-1]  # the frame rate that would do (the caption is shortened in the middle)
     assert scene.flights is None and scene.scale_m_per_px is not None
     sheet = out / "contact_sheet.png"
     assert main(["overlay", video, "--out", str(sheet), "--results", str(out)]) == 0

@@ -103,10 +103,13 @@ def test_recording_violations_name_each_limit_with_value_and_limit():
 def test_flight_violation_names_the_impact_and_the_short_flight():
     span, clean = video_limits.MIN_FRAME_INTERVALS_PER_FLIGHT, video_limits.MIN_CLEAN_FRAMES_PER_FLIGHT
     row = dict(impact=1, n_samples_before=clean, n_samples_after=clean)
-    assert video_limits.flight_violation(row, span, span) is None
-    short = video_limits.flight_violation(dict(row, impact=2), span + 10, span - 2.5)
-    assert short == f"impact 2: the flight after it lasts {span - 2.5:.1f} frame intervals < {span}"
-    sparse = video_limits.flight_violation(dict(row, impact=3, n_samples_after=clean - 5), span + 10, span + 10)
+    assert video_limits.flight_violation(row, span, span, 1 / 30) is None
+    short = video_limits.flight_violation(dict(row, impact=2), span + 10, span - 2.5, 1 / 30)
+    # 5.5 frame intervals at 30 frames/s last 0.183 s: 8 intervals need 43.6 frames/s
+    assert short == (f"impact 2: the flight after it lasts {span - 2.5:.1f} frame intervals at 30 frames/s, fewer "
+                     f"than the {span} a flight needs to be told from its impacts; film at 44 frames/s or more "
+                     f"(slow motion)")
+    sparse = video_limits.flight_violation(dict(row, impact=3, n_samples_after=clean - 5), span + 10, span + 10, 1 / 30)
     assert sparse == f"impact 3: clean frames in the flight after it: {clean - 5} < {clean}"
 
 

@@ -347,7 +347,7 @@ def make_trajectory(time_s, height_m, source, calibration, attrs=None, x_m=None)
 
 
 def flight_acceleration(time_s, height_px, source="log", nominal_drag_k_per_m=0.0, nominal_drag_relative_se=0.25,
-                        gravity_m_s2=STANDARD_GRAVITY_M_S2):
+                        gravity_m_s2=STANDARD_GRAVITY_M_S2, seen_px=None):
     """Downward acceleration of the flights in pixel units, averaged over the drag models the data allow.
 
     The flights are found by dropfit's segmentation (:func:`dropfit.analysis.segment`: tracking jumps
@@ -369,6 +369,9 @@ def flight_acceleration(time_s, height_px, source="log", nominal_drag_k_per_m=0.
         relative se.
     gravity_m_s2 : float
         g in m/s², to bring the drag parameter to px.
+    seen_px : numpy.ndarray, optional
+        Positions in px wherever the ball was seen, measured cleanly or not: the flights are found on them
+        (``seen_height`` of :func:`dropfit.analysis.segment`) and fitted on the clean ``height_px``.
 
     Returns
     -------
@@ -382,21 +385,25 @@ def flight_acceleration(time_s, height_px, source="log", nominal_drag_k_per_m=0.
     from .analysis.flights import parabola_start
     from .analysis.segmentation import CONTACT_CLEARANCE_S, free_flights
 
-    sign = vertical_sign(time_s, height_px)
+    sign = vertical_sign(time_s, height_px if seen_px is None else np.where(np.isfinite(height_px), height_px, seen_px))
     try:
-        found = segment(time_s - time_s[0], sign * height_px, source)
+        found = segment(time_s - time_s[0], sign * height_px, source,
+                        seen_height=None if seen_px is None else sign * np.asarray(seen_px, dtype=float))
     except InputError as error:  # (a fall without a bounce: a high-speed clip of the last millimetres)
         raise InputError(f"{error}: a px track is scaled from its flights' curvature, which needs a bounce; give the "
                          f"scale with --scale-m-per-px (negative for image rows, which point down)") from None
     t, y = found.time, found.height
+    fitted = np.ones(t.size, dtype=bool) if found.clean is None else found.clean
     clear = max(1, int(round(CONTACT_CLEARANCE_S / float(np.median(np.diff(t))))))
     # the flights from the release to the last impact (the one after it may end in a hand or at rest),
-    # clear of the samples that may touch the floor
+    # clear of the samples that may touch the floor; their clean samples
     edges = np.concatenate([[found.release - clear], found.impacts])
-    pieces = [(t[a + clear: b - clear + 1], y[a + clear: b - clear + 1]) for a, b in zip(edges[:-1], edges[1:])
-              if b - a - 2 * clear + 1 >= MIN_SAMPLES_PER_FLIGHT]
+    parts = [slice(a + clear, b - clear + 1) for a, b in zip(edges[:-1], edges[1:])]
+    pieces = [(t[part][fitted[part]], y[part][fitted[part]]) for part in parts]
+    drop = pieces[0]
+    pieces = [piece for piece in pieces if piece[0].size >= MIN_SAMPLES_PER_FLIGHT]
     pieces = pieces[: free_flights(pieces, found.acceleration)]
-    if pieces:  # the drop starts at its apex: a ball held still at the top is not yet falling
+    if pieces and pieces[0] is drop:  # the drop starts at its apex: a ball held still at the top is not yet falling
         y_apex, t_apex = parabola_start(*pieces[0], found.acceleration)
         pieces[0] = tuple(part[pieces[0][0] >= t_apex] for part in pieces[0])
         pieces = pieces if pieces[0][0].size >= MIN_SAMPLES_PER_FLIGHT else pieces[1:]
@@ -414,10 +421,11 @@ def flight_acceleration(time_s, height_px, source="log", nominal_drag_k_per_m=0.
 
 
 def scale_from_gravity(time_s, height_px, gravity_m_s2=STANDARD_GRAVITY_M_S2, source="log", nominal_drag_k_per_m=0.0,
-                       nominal_drag_relative_se=0.25):
+                       nominal_drag_relative_se=0.25, seen_px=None):
     """Metres per pixel from the curvature of the flights, drag included: s = g / A_px.
 
-    A_px is the flights' shared acceleration in px/s² from :func:`flight_acceleration`; its standard
+    A_px is the flights' shared acceleration in px/s² from :func:`flight_acceleration` (flights found on
+    ``seen_px`` when given); its standard
     error includes what the choice of drag model does to it. The uncertainty of g itself is not in it:
     an analysis carries that (it scales every length with the scale).
 
@@ -428,7 +436,7 @@ def scale_from_gravity(time_s, height_px, gravity_m_s2=STANDARD_GRAVITY_M_S2, so
         attributes that describe the calibration (drag model, each model's scale and weight, a note).
     """
     sign, fit = flight_acceleration(time_s, height_px, source, nominal_drag_k_per_m, nominal_drag_relative_se,
-                                    gravity_m_s2)
+                                    gravity_m_s2, seen_px)
     scale = gravity_m_s2 / fit.acceleration
     relative_se = fit.acceleration_se / fit.acceleration
     if relative_se > MAX_GRAVITY_SCALE_RELATIVE_SE:

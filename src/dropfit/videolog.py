@@ -226,11 +226,12 @@ def trajectory_from_video(path, ball_radius_m=None, scale_m_per_px=None, capture
         rows = _rectified(image_rows, extra)
     if "keystone_per_px" not in extra and (plane is None or not plane.corrects_tilt):
         extra["tilt_scale_difference"], _, extra["tilt_note"] = tilt_bias(radius_px, image_rows[usable])
-    time = _capture_time(table, rows, scales, capture_fps, gravity_m_s2, extra)
+    seen_rows = _seen_rows(table, plane, extra)
+    time = _capture_time(table, rows, seen_rows, scales, capture_fps, gravity_m_s2, extra)
     if extra["capture_fps_source"] == _RAW_RATE_SOURCE:
         extra["gravity_calibration_failed"] = "gravity set the capture rate, so it gives no independent scale"
     else:
-        _add_gravity_scale(scales, time, rows, gravity_m_s2, path, extra)
+        _add_gravity_scale(scales, time, rows, seen_rows, gravity_m_s2, path, extra)
     if not scales:
         raise InputError(f"{shown_path(path)}: no scale: give the ball radius, a ruler's tick spacing or scale_m_per_px "
                          f"({extra.get('gravity_calibration_failed', 'gravity calibration failed')})")
@@ -260,6 +261,8 @@ def trajectory_from_video(path, ball_radius_m=None, scale_m_per_px=None, capture
                 extra["floor_m"] = -floor_row * scale  # heights are −row × scale
                 extra["floor_se_m"] = FLOOR_ROW_SE_PX * scale
     trajectory = make_trajectory(time, -rows * scale, path, _CALIBRATION_TEXT[chosen], extra)
+    trajectory["y_seen"] = ("time", -seen_rows * scale,
+                            {"units": "m", "long_name": "height wherever the ball was seen, measured cleanly or not"})
     trajectory["x"] = ("time", x_px * scale, {"units": "m"})
     trajectory["radius"] = ("time", np.where(usable, table["radius_px"].to_numpy(), np.nan) * scale, {"units": "m"})
     trajectory["frame"] = ("time", table["frame"].to_numpy(), {"long_name": "video frame, counted from 0"})
@@ -383,11 +386,27 @@ def _rectified(rows_px, extra):
     return rectify_rows(rows_px, extra["keystone_per_px"], extra["keystone_row_px"])
 
 
-def _capture_time(table, rows, scales, capture_fps, gravity_m_s2, extra):
+def _seen_rows(table, plane, extra):
+    """Rows (px, down) of every frame with a ball centre, clean or not (occluded, shaded, blurred), through the
+    plane's map or the ruler's keystone as the clean rows go; NaN where the ball was lost or its centre repeats
+    the previous frame's to the bit (a held ball in a repeated capture: its run of equal rows would pass for a
+    noise-free track and set the noise the bounces are judged by)."""
+    x_px, rows_px = table["x_px"].to_numpy(dtype=float), table["y_px"].to_numpy(dtype=float)
+    repeated = np.r_[False, (np.diff(x_px) == 0) & (np.diff(rows_px) == 0)]
+    seen = np.isfinite(x_px) & np.isfinite(rows_px) & ~repeated
+    if plane is None:
+        return _rectified(np.where(seen, rows_px, np.nan), extra)
+    rows = np.full(rows_px.shape, np.nan)
+    rows[seen] = _plane_rows(plane, extra, x_px[seen], rows_px[seen])
+    return rows
+
+
+def _capture_time(table, rows, seen_rows, scales, capture_fps, gravity_m_s2, extra):
     """Frame times in s of capture; infer the capture rate from gravity when no rate is given.
 
-    With a scale independent of gravity, the flights' acceleration in the file's time tells the
-    capture rate (:func:`dropfit.video.calibrate.infer_capture_rate`). Notes go into ``extra``.
+    With a scale independent of gravity, the flights' acceleration in the file's time (found on the rows
+    seen, fitted on the clean ``rows``) tells the capture rate
+    (:func:`dropfit.video.calibrate.infer_capture_rate`). Notes go into ``extra``.
     """
     time = table["time_s"].to_numpy()
     file_fps = float(table.attrs.get("container_fps") or 0.0)
@@ -404,7 +423,8 @@ def _capture_time(table, rows, scales, capture_fps, gravity_m_s2, extra):
                                        "gravity (ball radius, ruler or given scale) to check it")
         return time
     try:
-        _, fit = flight_acceleration(time, rows, str(extra["video"]), *nominal_drag_of(extra), gravity_m_s2)
+        _, fit = flight_acceleration(time, rows, str(extra["video"]), *nominal_drag_of(extra), gravity_m_s2,
+                                     seen_rows)
     except InputError as error:
         extra.update(capture_fps=file_fps, capture_fps_source="container",
                      capture_rate_note=f"the file's rate is taken as the capture rate ({error})")
@@ -431,10 +451,11 @@ def _record_scales(scales, extra):
     return chosen, scale
 
 
-def _add_gravity_scale(scales, time, rows, gravity_m_s2, path, extra):
+def _add_gravity_scale(scales, time, rows, seen_rows, gravity_m_s2, path, extra):
     """Add the scale from gravity (drag included) to ``scales``, or note in ``extra`` why there is none."""
     try:
-        signed, se, details = scale_from_gravity(time, rows, gravity_m_s2, str(path), *nominal_drag_of(extra))
+        signed, se, details = scale_from_gravity(time, rows, gravity_m_s2, str(path), *nominal_drag_of(extra),
+                                                 seen_rows)
         extra.update(details)
     except InputError as error:
         extra["gravity_calibration_failed"] = str(error)

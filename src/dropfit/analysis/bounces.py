@@ -75,7 +75,7 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
                     nominal_drag_k_per_m=0.0, noise_correlation=0.0, gravity_se_m_s2=0.0, gravity_scaled=False,
                     contact_time_prior_s=None, contact_time_exponent=None,
                     nominal_drag_relative_se=NOMINAL_DRAG_RELATIVE_SE, max_contact_time_s=None, ball_radius_m=None,
-                    contact_height_found=False):
+                    contact_height_found=False, seen_height_m=None):
     """Segment a drop-test trajectory into flights, fit them and measure every impact.
 
     Parameters
@@ -151,6 +151,13 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
     ball_radius_m : float, optional
         The ball's radius (m): with a given contact height, a log of the ball's bottom or top taken for
         its centre shows as the flights meeting about a radius below or above it, and the note says so.
+    seen_height_m : array_like, optional
+        Height in m of the ball's centre wherever it was seen, measured cleanly or not (a video's blurred,
+        shaded or merged frames, good to a few px), NaN elsewhere; ``height_m`` holds the clean samples alone.
+        The flights and impacts are then found on these heights, and only the clean samples are fitted: a
+        clip whose fast flights near the floor are blurred still shows where its bounces are, and the
+        impacts are numbered from the release even when the first flights have too few clean samples to
+        be fitted.
 
     Returns
     -------
@@ -162,16 +169,18 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
     finite = np.isfinite(height_m)
     # times relative to the first sample: Unix-epoch stamps would leave no digits for a parabola
     origin = float(time_s[finite][0]) if finite.any() else 0.0
-    segmentation = segment(time_s - origin, height_m, source, acceleration=g)
+    segmentation = segment(time_s - origin, height_m, source, acceleration=g,
+                           seen_height=None if seen_height_m is None else np.asarray(seen_height_m, dtype=float))
     notes = list(segmentation.notes)
+    fit_time, fit_height, noise = segmentation.fit_samples()
     unknown = ball_kind(None)
     contact_prior = (tuple(contact_time_prior_s) if contact_time_prior_s is not None
                      else (unknown.contact_time_s, unknown.contact_time_se_s),
                      tuple(contact_time_exponent) if contact_time_exponent is not None
                      else (unknown.contact_time_exponent, unknown.contact_time_exponent_se))
-    problem = FitProblem(segmentation.time, segmentation.height, g, contact_height_m, segmentation.noise,
-                         float(contact_guard_s), float(segmentation.time[segmentation.release]), contact_prior)
-    bounds, cut = initial_bounds(problem, segmentation, source)
+    problem = FitProblem(fit_time, fit_height, g, contact_height_m, noise, float(contact_guard_s),
+                         float(segmentation.time[segmentation.release]), contact_prior)
+    bounds, cut, skipped = initial_bounds(problem, segmentation, source)
     held_k = float(nominal_drag_k_per_m or 0.0)
     longest = (unknown.max_contact_time_s if max_contact_time_s is None else float(max_contact_time_s),
                contact_prior[1][0])
@@ -186,38 +195,60 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
             continue
         outliers = residual_outliers(fit, problem.noise)
         if outliers.size and outliers.size <= kept.outliers_allowed:
-            keep[np.flatnonzero(keep)[np.isin(problem.t[keep], fit.model.t[outliers])]] = False
+            left = keep.copy()
+            left[np.flatnonzero(keep)[np.isin(problem.t[keep], fit.model.t[outliers])]] = False
+            sparse = next((i for i, ok in enumerate(sampled_enough(problem.t[left], bounds)) if not ok), None)
+            if sparse is None:
+                keep = left
+            elif sparse >= 2:  # the outliers took a flight below what a fit needs: the sequence ends before it
+                notes.append(f"flight {skipped + sparse} has fewer than {MIN_SAMPLES_PER_FLIGHT} samples once its "
+                             f"outliers of the flight fit are left out: the bounce sequence ends before it")
+                bounds = bounds[:sparse]
+            elif len(bounds) - sparse - 1 >= 2:  # ... or starts after it
+                skipped += sparse + 1
+                bounds = bounds[sparse + 1:]
+                problem.release_time = max(problem.release_time, bounds[0][0])
+                problem.first_flight_after_impact = True
+            else:
+                raise InputError(f"{source}: flight {skipped + sparse} has fewer than {MIN_SAMPLES_PER_FLIGHT} samples "
+                                 f"once its outliers of the flight fit are left out: no impact is left to measure")
             continue
         unresolved = first_unresolved_impact(fit, problem.noise)
         if unresolved is None:
             floor_note = None if problem.contact_height is None else implausible_contact_height(
                 fit, longest, ball_radius_m, contact_time_se(fit, held_drag, contact_height_se_m=contact_height_se_m,
                                                              noise_correlation=noise_correlation),
-                contact_height_found)
+                contact_height_found, skipped + 1)
             if floor_note is None:
                 break
             # a contact height the flights contradict is not a measurement: model it from the flights
             notes.append(floor_note)
             problem.contact_height = None
-            bounds, cut = initial_bounds(problem, segmentation, source)
+            bounds, cut, skipped = initial_bounds(problem, segmentation, source)
             continue
         if unresolved == 0:
-            raise InputError(f"{source}: the first rebound does not rise clearly above the contact height: no impact "
-                             f"is resolved (the ball may not bounce, or the floor is set too high)")
-        notes.append(f"impact {unresolved + 1}: its rebound rises less than {HOP_RESOLUTION_IN_NOISE:g} noise standard "
-                     f"deviations above the contact height, below the resolution; the bounce sequence ends before it")
+            first = f" (impact {skipped + 1})" if skipped else ""
+            raise InputError(f"{source}: the first rebound{first} does not rise clearly above the contact height: no "
+                             f"impact is resolved (the ball may not bounce, or the floor is set too high)")
+        notes.append(f"impact {skipped + unresolved + 1}: its rebound rises less than {HOP_RESOLUTION_IN_NOISE:g} "
+                     f"noise standard deviations above the contact height, below the resolution; the bounce sequence "
+                     f"ends before it")
         bounds = fit.bounds[: unresolved + 1]
     if fit.quantities.n_impacts == 0:  # every cut together can leave one flight
         cuts = [note for note in notes + cut if "sequence ends before" in note]
         if fit.misfit_cut is not None:
-            cuts.append(f"flight {fit.misfit_cut}: its residuals are far larger than the noise")
+            cuts.append(f"flight {skipped + fit.misfit_cut}: its residuals are far larger than the noise")
         raise InputError(f"{source}: no impact is left to measure: {'; '.join(cuts) or 'one flight only'}")
     # the free fall starts where flight 0 does (at its apex when the ball left the hand at rest)
     release_time = float(fit.bounds[0][0]) + origin
     notes = [note for note in notes if not note.startswith("the ball was held")]
-    hand = int(np.count_nonzero(segmentation.time + origin < release_time - 1e-6))
+    hand = int(np.count_nonzero(problem.t + origin < release_time - 1e-6))
     rising = rising_into_first_apex(fit, problem.subset(keep))
-    if rising >= MIN_SAMPLES_PER_FLIGHT:
+    if skipped:
+        notes.append(f"{'flight 0 has' if skipped == 1 else f'flights 0-{skipped - 1} have'} fewer than "
+                     f"{MIN_SAMPLES_PER_FLIGHT} samples to fit: the fit starts with flight {skipped}, after impact "
+                     f"{skipped}; the impacts keep their numbers from the release, and no drop height is measured")
+    elif rising >= MIN_SAMPLES_PER_FLIGHT:
         notes.append(f"flight 0 is a bounce, not a drop: {rising} samples before it rise into its apex along its "
                      f"free flight, so an impact before them was not found (too few samples about it): the impacts "
                      f"are numbered from the first one found, and flight 0's apex is no drop height")
@@ -230,8 +261,8 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
     if fit.misfit_cut is None:  # an earlier cut by the misfit test makes the segmentation's moot
         notes.extend(cut)
     else:
-        notes.append(f"flight {fit.misfit_cut}: its residuals are far larger than the noise (a bounce too shallow to "
-                     f"detect, or not a free flight); the bounce sequence ends before it")
+        notes.append(f"flight {skipped + fit.misfit_cut}: its residuals are far larger than the noise (a bounce too "
+                     f"shallow to detect, or not a free flight); the bounce sequence ends before it")
     left_out = np.count_nonzero(~keep)
     if left_out:
         notes.append(f"{left_out} samples left out as outliers of the flight fit (more than "
@@ -241,7 +272,9 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
                    "noise_correlation": noise_correlation, "gravity_se_m_s2": float(gravity_se_m_s2),
                    "gravity_scaled": bool(gravity_scaled), "extra_parts": extra_parts}
     data = {"release_time_s": release_time, "hand_samples": hand, "tracking_jump_samples": int(segmentation.outliers.size),
-            "residual_outlier_samples": int(left_out), "first_flight_is_a_bounce": rising >= MIN_SAMPLES_PER_FLIGHT}
+            "residual_outlier_samples": int(left_out),
+            "first_flight_is_a_bounce": bool(skipped) or rising >= MIN_SAMPLES_PER_FLIGHT,
+            "first_impact": skipped + 1}
     return _assemble(fit, bics, problem.subset(keep), origin, source, uncertainty, data, notes, kinds)
 
 
@@ -263,6 +296,7 @@ class FitProblem:
     release_time: float
     contact_prior: tuple = ((0.0, 0.0), (0.0, 0.0))
     outliers_allowed: int | None = None  # None: the fraction of these samples
+    first_flight_after_impact: bool = False  # flight 0 starts at the release time, rising from a bounce
 
     def __post_init__(self):
         if self.outliers_allowed is None:
@@ -273,7 +307,8 @@ class FitProblem:
         the samples it leaves out."""
         left_out = int(np.count_nonzero(~np.asarray(keep)))
         return FitProblem(self.t[keep], self.y[keep], self.g, self.contact_height, self.noise, self.guard_s,
-                          self.release_time, self.contact_prior, max(self.outliers_allowed - left_out, 0))
+                          self.release_time, self.contact_prior, max(self.outliers_allowed - left_out, 0),
+                          self.first_flight_after_impact)
 
     def impact_quantities(self, model):
         """The impact quantities of a flight model fitted to this problem."""
@@ -294,20 +329,34 @@ class FlightFit:
     misfit_cut: int | None = None  # the flight whose residuals ended the sequence before it, if any
 
 
+def sampled_enough(t, bounds):
+    """Per flight in ``bounds`` (open intervals, s): whether it holds at least ``MIN_SAMPLES_PER_FLIGHT`` of the
+    sample times ``t`` (s)."""
+    return [np.count_nonzero((t > lo) & (t < hi)) >= MIN_SAMPLES_PER_FLIGHT for lo, hi in bounds]
+
+
 def initial_bounds(problem, segmentation, source):
-    """Flight intervals (s) from the segmentation, up to the first flight sampled too sparsely or not
-    curving like a free flight; checks that the flights fall with g.
+    """Flight intervals (s) from the segmentation, from the first of two flights in a row with enough samples
+    to fit up to the first flight after them sampled too sparsely or not curving like a free flight; checks
+    that the flights fall with g.
 
     Returns
     -------
-    (list, list of str)
-        The bounds and a note for where the sequence was cut and why.
+    (list, list of str, int)
+        The bounds, a note for where the sequence was cut and why, and how many first flights were passed
+        over for too few samples.
     """
     t, y = problem.t, problem.y
-    bounds = flight_bounds(t, y, segmentation.release, segmentation.impacts, problem.noise, problem.contact_height)
+    bounds = flight_bounds(segmentation.time, segmentation.height, segmentation.release, segmentation.impacts,
+                           segmentation.noise, problem.contact_height)
+    sampled = sampled_enough(t, bounds)
+    skipped = next((i for i in range(len(bounds) - 1) if sampled[i] and sampled[i + 1]), 0)
+    if skipped:  # the sequence starts after the impact that ends the last sparse flight
+        bounds, sampled = bounds[skipped:], sampled[skipped:]
+        problem.release_time = max(problem.release_time, bounds[0][0])
+        problem.first_flight_after_impact = True
     # keep impacts while both neighbouring flights are sampled well enough
-    counts = [np.count_nonzero((t > lo) & (t < hi)) for lo, hi in bounds]
-    n_flights = next((i for i, c in enumerate(counts) if c < MIN_SAMPLES_PER_FLIGHT), len(bounds))
+    n_flights = next((i for i, ok in enumerate(sampled) if not ok), len(bounds))
     if n_flights < 2:
         raise InputError(f"{source}: no bounce with at least {MIN_SAMPLES_PER_FLIGHT} samples in the flights "
                          f"before and after it")
@@ -317,12 +366,12 @@ def initial_bounds(problem, segmentation, source):
                          f"or far more than g): it hides a bounce too shallow to detect, and no impact is left")
     notes = []
     if kept < n_flights:
-        notes.append(f"flight {kept} does not curve like a free flight (a bounce too shallow to detect, the ball "
-                     f"rolling, a hand): the bounce sequence ends before it")
+        notes.append(f"flight {skipped + kept} does not curve like a free flight (a bounce too shallow to detect, the "
+                     f"ball rolling, a hand): the bounce sequence ends before it")
     elif n_flights < len(bounds):
-        notes.append(f"flight {n_flights} has fewer than {MIN_SAMPLES_PER_FLIGHT} samples: the bounce sequence ends "
-                     f"before it")
-    return bounds[:kept], notes
+        notes.append(f"flight {n_flights + skipped} has fewer than {MIN_SAMPLES_PER_FLIGHT} samples: the bounce "
+                     f"sequence ends before it")
+    return bounds[:kept], notes, skipped
 
 
 def fit_with_drag_choice(problem, bounds, drag, held_k, held_k_relative_se, source):
@@ -436,7 +485,7 @@ def contact_time_se(fit, held_drag, **uncertainty):
     return np.sqrt(np.clip(np.diag(covariance)[rows], 0.0, None))
 
 
-def implausible_contact_height(fit, longest, radius_m, contact_se_s=0.0, found=False):
+def implausible_contact_height(fit, longest, radius_m, contact_se_s=0.0, found=False, first_impact=1):
     """A note if the given contact height makes the contacts longer than the ball can have (a log of
     the ball's bottom taken for its centre, a floor set too high, a floor edge seen behind the ball), else
     None: by ``CONTACT_HEIGHT_REJECTION_FACTOR`` times, or by more than ``CONTACT_HEIGHT_REJECTION_SE`` of
@@ -446,7 +495,8 @@ def implausible_contact_height(fit, longest, radius_m, contact_se_s=0.0, found=F
     meet above it (a contact shorter than zero by ``NEGATIVE_CONTACT_SE`` standard errors), where a given
     one is refused (:func:`_assemble`).
 
-    ``longest``: the longest contact time at 1 m/s (s) and its exponent.
+    ``longest``: the longest contact time at 1 m/s (s) and its exponent; ``first_impact``: the number of the
+    fit's first impact.
     """
     quantities = fit.quantities
     if quantities.given_contact_height is None:
@@ -461,12 +511,12 @@ def implausible_contact_height(fit, longest, radius_m, contact_se_s=0.0, found=F
     flights_meet_above = contact < -NEGATIVE_CONTACT_SE * contact_se
     if found and flights_meet_above.any():
         first = int(np.flatnonzero(flights_meet_above)[0])
-        return (f"the flights meet above {floor}: impact {first + 1}'s contact would last "
+        return (f"the flights meet above {floor}: impact {first_impact + first}'s contact would last "
                 f"{1e3 * contact[first]:.3g} ms (the floor seen lower than where the ball touches){ending}")
     if not too_long.any():
         return None
     first = int(np.flatnonzero(too_long)[0])
-    return (f"{floor} makes impact {first + 1}'s contact last {1e3 * contact[first]:.3g} ms, "
+    return (f"{floor} makes impact {first_impact + first}'s contact last {1e3 * contact[first]:.3g} ms, "
             f"more than this kind of ball can (at most {1e3 * limit[first]:.2g} ms)"
             + ("" if found else reference_hint(quantities, fit.result.x, radius_m)) + ending)
 
@@ -549,7 +599,7 @@ def refine(problem, bounds, with_drag, theta0, fixed_k=0.0):
     A flight keeps the samples more than ``problem.guard_s`` after the lift-off before it and before
     the touchdown after it; flight 0 starts at its apex, but never before the release. A noise dip
     that split one flight in two is joined again; a flight whose residuals hide an impact too shallow
-    to detect ends the sequence before it.
+    to detect ends the sequence before it. A flight 0 that follows an impact starts at the release time.
 
     Returns
     -------
@@ -571,7 +621,8 @@ def refine(problem, bounds, with_drag, theta0, fixed_k=0.0):
         quantities.set_weights(result)
         values = unpack_quantities(quantities(result.x), quantities.n_impacts)
         y_apex, t_apex, k = model.unpack(result.x)
-        first_start = max(t_apex[0], problem.release_time) - 1e-9
+        first_start = (problem.release_time if problem.first_flight_after_impact
+                       else max(t_apex[0], problem.release_time)) - 1e-9
         starts = np.concatenate([[first_start], values["t_liftoff_s"] + guard_s])
         last_end = t_apex[-1] + time_from_apex(y_apex[-1] - values["contact_height_m"], k, g)
         ends = np.append(values["t_touchdown_s"] - guard_s, last_end - guard_s)
@@ -625,7 +676,7 @@ def _assemble(fit, bics, problem, origin, source, uncertainty, data, notes, ball
 
     residual_rms = np.array([np.sqrt(np.mean(result.fun[model.flight == i] ** 2)) for i in range(model.n_flights)])
     flights = pd.DataFrame({
-        "flight": np.arange(model.n_flights),
+        "flight": np.arange(model.n_flights) + data["first_impact"] - 1,
         "t_start_s": [b[0] for b in bounds],
         "t_end_s": [b[1] for b in bounds],
         "t_apex_s": t_apex,
@@ -636,7 +687,7 @@ def _assemble(fit, bics, problem, origin, source, uncertainty, data, notes, ball
         "residual_rms_m": residual_rms,
     })
     add_with_interval(flights, "apex_height_m", values["apex_height_m"], errors["apex_height_m"])
-    impacts = pd.DataFrame({"impact": np.arange(1, n + 1)})
+    impacts = pd.DataFrame({"impact": np.arange(data["first_impact"], data["first_impact"] + n)})
     for name in IMPACT_COLUMNS[:-1]:
         add_with_interval(impacts, name, values[name], errors[name])
     add_with_interval(impacts, "h_before_m", values["apex_height_m"][:-1], errors["apex_height_m"][:-1])
@@ -655,8 +706,8 @@ def _assemble(fit, bics, problem, origin, source, uncertainty, data, notes, ball
     too_long = given & (contact_ms - 2 * contact_se_ms > longest_ms)
     if too_long.any():
         first = int(np.flatnonzero(too_long)[0])
-        notes.append(f"impact {first + 1}: the contact lasts {contact_ms[first]:.3g} ms, longer than this kind of ball "
-                     f"can (at most {longest_ms[first]:.2g} ms at {values['v_in_m_s'][first]:.2g} m/s)"
+        notes.append(f"impact {data['first_impact'] + first}: the contact lasts {contact_ms[first]:.3g} ms, longer than "
+                     f"this kind of ball can (at most {longest_ms[first]:.2g} ms at {values['v_in_m_s'][first]:.2g} m/s)"
                      + reference_hint(quantities, theta, ball["radius_m"])
                      + "; the contact times are not reported as resolved")
     impacts["n_samples_before"] = counts[:-1]

@@ -258,7 +258,7 @@ def unclean_frames(table):
     return f"{described}; tracked in {channel}" if channel else described
 
 
-def flight_violation(impacts_row, frames_before, frames_after):
+def flight_violation(impacts_row, frames_before, frames_after, frame_interval_s):
     """Why an impact is unresolved, or None if both its flights are sampled densely enough.
 
     Parameters
@@ -267,12 +267,17 @@ def flight_violation(impacts_row, frames_before, frames_after):
         A row of the impacts table (``impact``, ``n_samples_before``, ``n_samples_after``: clean frames).
     frames_before, frames_after : float
         How many frame intervals the flights before and after the impact last.
+    frame_interval_s : float
+        Time between frames in s, for the frame rate that would film the flight long enough.
     """
     for side, span, clean in (("before", frames_before, impacts_row["n_samples_before"]),
                               ("after", frames_after, impacts_row["n_samples_after"])):
         if span < MIN_FRAME_INTERVALS_PER_FLIGHT:
-            return (f"impact {int(impacts_row['impact'])}: the flight {side} it lasts {span:.1f} frame intervals "
-                    f"< {MIN_FRAME_INTERVALS_PER_FLIGHT}")
+            rate = 1.0 / frame_interval_s
+            needed = math.ceil(rate * MIN_FRAME_INTERVALS_PER_FLIGHT / span) if span > 0 else math.inf
+            return (f"impact {int(impacts_row['impact'])}: the flight {side} it lasts {span:.1f} frame intervals at "
+                    f"{rate:.3g} frames/s, fewer than the {MIN_FRAME_INTERVALS_PER_FLIGHT} a flight needs to be told "
+                    f"from its impacts; film at {needed:g} frames/s or more (slow motion)")
         if clean < MIN_CLEAN_FRAMES_PER_FLIGHT:
             return (f"impact {int(impacts_row['impact'])}: clean frames in the flight {side} it: {int(clean)} "
                     f"< {MIN_CLEAN_FRAMES_PER_FLIGHT}")
@@ -292,13 +297,15 @@ def flight_spans(analysis, frame_interval_s):
     Returns
     -------
     (numpy.ndarray, numpy.ndarray)
-        Per impact, the frame intervals of the flight before it (the drop: from its apex) and of the
-        flight after it (the last: twice its rise to the apex).
+        Per impact, the frame intervals of the flight before it (the drop: from its apex; a first flight that
+        follows a bounce: from its start) and of the flight after it (the last: twice its rise to the apex).
     """
     touchdown = analysis.impacts["t_touchdown_s"].to_numpy()
     liftoff = analysis.impacts["t_liftoff_s"].to_numpy()
     apex = analysis.flights["t_apex_s"].to_numpy()
-    starts = np.concatenate([[apex[0]], liftoff[:-1]])
+    first_start = min(apex[0], analysis.flights["t_start_s"].iloc[0]) \
+        if analysis.summary.get("first_flight_is_a_bounce") else apex[0]
+    starts = np.concatenate([[first_start], liftoff[:-1]])
     ends = np.append(touchdown[1:], liftoff[-1] + 2.0 * (apex[len(liftoff)] - liftoff[-1]))
     return (touchdown - starts) / frame_interval_s, (ends - liftoff) / frame_interval_s
 
@@ -338,7 +345,7 @@ def select_resolved_impacts(analysis, source, frame_interval_s, unclean=None):
         When no impact is resolved: nothing is left to report.
     """
     spans = flight_spans(analysis, frame_interval_s)
-    reasons = [flight_violation(row, before, after)
+    reasons = [flight_violation(row, before, after, frame_interval_s)
                for (_, row), before, after in zip(analysis.impacts.iterrows(), *spans)]
     first = next((i for i, reason in enumerate(reasons) if reason is None), None)
     if first is None:

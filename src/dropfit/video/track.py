@@ -66,6 +66,12 @@ COLUMNS = ["frame", "time_s", "x_px", "y_px", "radius_px", "quality", "centre_se
 DUPLICATE_TOLERANCE_GREY = 0.5
 #: Rows between the sparse rows of the duplicate test.
 DUPLICATE_STRIDE_PX = 16
+#: A frame whose ball moved less than this fraction of its speed (px a frame) before and after it, the two in the same
+#: direction and at least ``REPEAT_MIN_SPEED_PX`` a frame, repeats the previous frame's capture (see
+#: :func:`refitted_repeats`). Phonesim's white ping-pong MOV (30 Hz in 60 fps, libx264 crf 18): the repeats its frame
+#: test missed moved 0-0.16 px where the ball moved 1-70 px between captures; new captures 1-71 px.
+REPEAT_MOVE_FRACTION = 0.2
+REPEAT_MIN_SPEED_PX = 1.0
 #: A frame identical to the previous one is not a duplicate when the ball moved less than this a frame
 #: between its last two found centres, px (a ball at rest in a noise-free video, or just released).
 STILL_BALL_STEP_PX = 0.1
@@ -707,12 +713,54 @@ class _FlightRescue:
         return rescued if _usable_and_found(rescued)[0] > _usable_and_found(rows)[0] else None
 
 
+def refitted_repeats(x_px, y_px, quality):
+    """Frames that measure the previous frame's capture again, which the frame test did not flag.
+
+    A codec re-encodes a repeated capture with changes anywhere in the frame (a 30 Hz capture in a 60 fps MOV), and
+    the frame test (:meth:`BallTracker._is_duplicate`) takes it for a new one; its time stamp is then not its
+    instant. Its ball has hardly moved (less than ``REPEAT_MOVE_FRACTION`` of the speed) while the ball moves at
+    least ``REPEAT_MIN_SPEED_PX`` a frame on both sides in the same direction (a ball in flight cannot stop, and one
+    that bounces, is caught or held turns or stops), or its centre repeats the previous frame's to the bit after
+    the ball moved (more than ``STILL_BALL_STEP_PX`` a frame).
+
+    Parameters
+    ----------
+    x_px, y_px : numpy.ndarray
+        Centres (px), NaN where not found.
+    quality : sequence of str
+        Each frame's flag; only frames with the ball measured alone (not occluded) count.
+
+    Returns
+    -------
+    numpy.ndarray
+        Boolean mask of the repeated frames.
+    """
+    measured = np.flatnonzero(np.isin(np.asarray(quality), [QUALITY_OK, QUALITY_BLURRED, QUALITY_PARTIAL,
+                                                           QUALITY_SHADED]))
+    repeats = np.zeros(len(quality), dtype=bool)
+    for before, previous, current, after in zip(measured, measured[1:], measured[2:], measured[3:]):
+        if current - previous != 1:
+            continue
+        points = np.array([(x_px[k], y_px[k]) for k in (before, previous, current, after)])
+        speed_before = (points[1] - points[0]) / (previous - before)
+        speed_after = (points[3] - points[2]) / (after - current)
+        speed = min(np.hypot(*speed_before), np.hypot(*speed_after))
+        # a centre fitted again to the bit is the same pixels, at the apex or a bounce too
+        exact = (points[2] == points[1]).all() and np.hypot(*speed_before) > STILL_BALL_STEP_PX
+        repeats[current] = exact or (speed >= REPEAT_MIN_SPEED_PX and float(speed_before @ speed_after) > 0
+                                     and np.hypot(*(points[2] - points[1])) <= REPEAT_MOVE_FRACTION * speed)
+    return repeats
+
+
 def _table(rows, times_s):
-    x, y, r, quality, centre_se, fit_rms = zip(*rows) if rows else ((),) * 6
-    return pd.DataFrame({"frame": np.arange(len(rows)), "time_s": np.asarray(times_s, float),
-                         "x_px": np.asarray(x, float), "y_px": np.asarray(y, float),
-                         "radius_px": np.asarray(r, float), "quality": list(quality),
-                         "centre_se_px": np.asarray(centre_se, float), "fit_rms_px": np.asarray(fit_rms, float)},
+    x, y, r, quality, centre_se, fit_rms = (np.asarray(column, float) if k != 3 else np.asarray(column, object)
+                                            for k, column in enumerate(zip(*rows) if rows else ((),) * 6))
+    repeats = refitted_repeats(x, y, quality)
+    quality[repeats] = QUALITY_DUPLICATE
+    for column in (x, y, r, centre_se, fit_rms):
+        column[repeats] = np.nan
+    return pd.DataFrame({"frame": np.arange(len(rows)), "time_s": np.asarray(times_s, float), "x_px": x, "y_px": y,
+                         "radius_px": r, "quality": list(quality), "centre_se_px": centre_se, "fit_rms_px": fit_rms},
                         columns=COLUMNS)
 
 
