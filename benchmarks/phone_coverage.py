@@ -32,6 +32,7 @@ PRESET_OPTIONS = {
     "yellow_green_tape": {},
     "yellow_flicker_portrait_120": {"ruler_tick_m": 0.01},
     "red_blur_portrait": {},
+    "white_pingpong_mov": {},
 }
 Z95 = 1.959963984540054
 
