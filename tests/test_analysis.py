@@ -433,3 +433,46 @@ def test_bounces_seen_in_blurred_frames_keep_the_impacts_numbered_from_the_relea
     assert any("the impacts keep their numbers from the release" in note for note in notes), notes
     assert not any("held or moved by hand" in note for note in notes), notes
     assert np.isnan(analysis.summary["drop_height_m"])
+
+
+def test_seen_heights_that_are_the_clean_ones_change_nothing():
+    """A video measured cleanly in every frame passes its heights twice (clean, and seen). A two-frame, 3 cm tracking
+    glitch at 120 Hz is still a tracking jump: the looser test for frames seen but not clean does not apply to it
+    (measured with the loose test for all: the glitch stayed, and the sequence ended after impact 1)."""
+    from dropfit.synth import simulate_drop
+
+    truth = simulate_drop(1.0, 0.0335, {"kind": "constant", "e0": 0.75}, release_time_s=0.3)
+    time = np.arange(0.0, 3.0, 1 / 120)
+    heights = truth.height(time) + np.random.default_rng(5).normal(0.0, 0.001, time.size)
+    glitch = int(np.argmin(np.abs(time - 1.6)))
+    heights[glitch:glitch + 2] -= 0.03
+    alone = analyse_bounces(time, heights)
+    twice = analyse_bounces(time, heights, seen_height_m=heights.copy())
+    assert alone.summary["tracking_jump_samples"] == twice.summary["tracking_jump_samples"] == 2
+    assert twice.impacts["impact"].tolist() == alone.impacts["impact"].tolist() == list(range(1, 7))
+    assert np.allclose(twice.impacts["e"], alone.impacts["e"], rtol=0, atol=1e-12)
+
+
+def test_a_well_sampled_drop_before_a_sparse_rebound_is_not_called_sparse():
+    """Flight 0 measured cleanly throughout (9 frames), flight 1 in 3: impact 1 and 2 need flight 1, so the fit
+    starts with flight 2, and the note names flight 1 alone; the ball was let go, not held, before the drop."""
+    from dropfit.synth import simulate_drop
+
+    truth = simulate_drop(0.6, 0.02, {"kind": "constant", "e0": 0.89}, mass_kg=0.0027, drag_coefficient=0.5,
+                          release_time_s=1.0)
+    rng = np.random.default_rng(0)
+    time = np.arange(0.0, 5.0, 1 / 30) + rng.uniform(0.0, 1 / 30)
+    true_height = truth.height(time)
+    speed = np.abs(truth.height(time + 1e-4) - truth.height(time - 1e-4)) / 2e-4
+    first, second = truth.impacts["t_s"].iloc[:2]
+    after_release = time > truth.release_time_s + 0.05
+    clean = after_release & ((speed < 1.0) | (time < first - 0.03))
+    in_flight_1 = np.flatnonzero(clean & (time > first) & (time < second))
+    clean[in_flight_1[3:]] = False
+    heights = np.where(clean, true_height + rng.normal(0.0, 0.0002, time.size), np.nan)
+    seen = true_height + rng.normal(0.0, 0.002, time.size)
+    analysis = analyse_bounces(time, heights, seen_height_m=seen, contact_guard_s=1 / 60,
+                               nominal_drag_k_per_m=truth.drag_k_per_m)
+    assert analysis.impacts["impact"].iloc[0] == 3 and analysis.summary["hand_samples"] == 0
+    assert any(note.startswith("flight 1 has fewer than 5 samples to fit: the fit starts with flight 2")
+               for note in analysis.summary["notes"]), analysis.summary["notes"]

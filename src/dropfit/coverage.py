@@ -112,10 +112,9 @@ def site_gravity_draw(rng):
 def _pairs(scenario, truth, analysis, fitted):
     """(quantity, value, se, truth) of everything the analysis and the fit report."""
     impacts = analysis.impacts
-    true_impacts = pd.DataFrame(truth["impacts"])
-    n = len(impacts)
-    # impacts are matched by order; a trial whose touchdowns do not line up is reported, not hidden
-    matched = np.abs(impacts["t_touchdown_s"].to_numpy() - true_impacts["t_s"].to_numpy()[:n]) < 0.01
+    # impacts are matched by their numbers from the release; a trial whose touchdowns do not line up is reported
+    true_impacts = pd.DataFrame(truth["impacts"]).iloc[impacts["impact"].to_numpy() - 1].reset_index(drop=True)
+    matched = np.abs(impacts["t_touchdown_s"].to_numpy() - true_impacts["t_s"].to_numpy()) < 0.01
     if not matched.all():
         raise AssertionError(f"analysed touchdowns do not match the truth: {impacts['t_touchdown_s'].tolist()}")
     rows = []
@@ -231,7 +230,8 @@ def video_trial(seed, directory, scenario=None, floor_known=True):
                                      scale_m_per_px=1.0 / spec["px_per_m"], floor_m=floor_m).analysis
     finally:
         Path(frames.attrs["video_path"]).unlink()
-    impacts, true_impacts = analysis.impacts, truth.impacts.iloc[: len(analysis.impacts)]
+    impacts = analysis.impacts
+    true_impacts = truth.impacts.iloc[impacts["impact"].to_numpy() - 1]  # numbered from the release
     if np.any(np.abs(impacts["t_touchdown_s"].to_numpy() - true_impacts["t_s"].to_numpy()) > 0.02):
         raise AssertionError(f"analysed touchdowns do not match the truth: {impacts['t_touchdown_s'].tolist()}")
     rows = [("e", v, s, t) for v, s, t in zip(impacts["e"], impacts["e_se"], true_impacts["e"])]

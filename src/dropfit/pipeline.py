@@ -261,7 +261,9 @@ def analyse_trajectory(trajectory, settings=None, source=None):
     interval = float(np.median(np.diff(time))) if time.size > 1 else 0.0
     options = analysis_options(attrs, settings, interval)
     try:
-        seen = trajectory["y_seen"].values if "y_seen" in trajectory else None
+        # a video's heights wherever the ball was seen (dropfit.videolog.trajectory_from_video)
+        seen = trajectory["y_seen"].values if "y_seen" in trajectory and trajectory["y_seen"].dims == ("time",) \
+            else None
         analysis = analyse_bounces(time, trajectory["y"].values, seen_height_m=seen, **options)
     except NotFreeFallError as error:
         if "video" not in attrs:

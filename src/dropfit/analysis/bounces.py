@@ -30,7 +30,8 @@ from .flights import (MIN_SAMPLES_PER_FLIGHT, FlightModel, bic, combine_with_pri
                       fit_flights, parabola_start)
 from .impacts import (IMPACT_COLUMNS, ImpactQuantities, contact_resolvable, quantity_index, rest_time,
                       unpack_quantities)
-from .segmentation import IMPACT_DEPTH_IN_NOISE, RELEASE_SIGMAS, check_free_fall, flight_bounds, segment
+from .segmentation import (CONTACT_CLEARANCE_S, IMPACT_DEPTH_IN_NOISE, RELEASE_SIGMAS, check_free_fall, flight_bounds,
+                           segment)
 from .tables import add_with_interval, se_column_name
 from .uncertainty import quantity_covariance, refit_response, refit_sensitivity
 
@@ -180,12 +181,13 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
                      else (unknown.contact_time_exponent, unknown.contact_time_exponent_se))
     problem = FitProblem(fit_time, fit_height, g, contact_height_m, noise, float(contact_guard_s),
                          float(segmentation.time[segmentation.release]), contact_prior)
-    bounds, cut, skipped = initial_bounds(problem, segmentation, source)
+    bounds, cut, passed_over = initial_bounds(problem, segmentation, source)
     held_k = float(nominal_drag_k_per_m or 0.0)
     longest = (unknown.max_contact_time_s if max_contact_time_s is None else float(max_contact_time_s),
                contact_prior[1][0])
     keep = np.ones(problem.t.size, dtype=bool)
     while True:
+        skipped = passed_over[-1] + 1 if passed_over else 0  # the first fitted flight's number
         kept = problem.subset(keep)
         fit, bics, held_drag = fit_with_drag_choice(kept, bounds, drag, held_k, float(nominal_drag_relative_se),
                                                     source)
@@ -205,10 +207,9 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
                              f"outliers of the flight fit are left out: the bounce sequence ends before it")
                 bounds = bounds[:sparse]
             elif len(bounds) - sparse - 1 >= 2:  # ... or starts after it
-                skipped += sparse + 1
+                passed_over.append(skipped + sparse)
                 bounds = bounds[sparse + 1:]
-                problem.release_time = max(problem.release_time, bounds[0][0])
-                problem.first_flight_after_impact = True
+                start_after_impact(problem, bounds)
             else:
                 raise InputError(f"{source}: flight {skipped + sparse} has fewer than {MIN_SAMPLES_PER_FLIGHT} samples "
                                  f"once its outliers of the flight fit are left out: no impact is left to measure")
@@ -224,7 +225,7 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
             # a contact height the flights contradict is not a measurement: model it from the flights
             notes.append(floor_note)
             problem.contact_height = None
-            bounds, cut, skipped = initial_bounds(problem, segmentation, source)
+            bounds, cut, passed_over = initial_bounds(problem, segmentation, source, keep)
             continue
         if unresolved == 0:
             first = f" (impact {skipped + 1})" if skipped else ""
@@ -239,15 +240,18 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
         if fit.misfit_cut is not None:
             cuts.append(f"flight {skipped + fit.misfit_cut}: its residuals are far larger than the noise")
         raise InputError(f"{source}: no impact is left to measure: {'; '.join(cuts) or 'one flight only'}")
-    # the free fall starts where flight 0 does (at its apex when the ball left the hand at rest)
-    release_time = float(fit.bounds[0][0]) + origin
+    # the free fall starts where flight 0 does (at its apex when the ball left the hand at rest); the first flights
+    # passed over start at the segmentation's release
+    release_time = float(segmentation.time[segmentation.release] if skipped else fit.bounds[0][0]) + origin
     notes = [note for note in notes if not note.startswith("the ball was held")]
     hand = int(np.count_nonzero(problem.t + origin < release_time - 1e-6))
     rising = rising_into_first_apex(fit, problem.subset(keep))
     if skipped:
-        notes.append(f"{'flight 0 has' if skipped == 1 else f'flights 0-{skipped - 1} have'} fewer than "
-                     f"{MIN_SAMPLES_PER_FLIGHT} samples to fit: the fit starts with flight {skipped}, after impact "
-                     f"{skipped}; the impacts keep their numbers from the release, and no drop height is measured")
+        sparse = ", ".join(str(flight) for flight in passed_over)
+        notes.append(f"{'flight' if len(passed_over) == 1 else 'flights'} {sparse} "
+                     f"{'has' if len(passed_over) == 1 else 'have'} fewer than {MIN_SAMPLES_PER_FLIGHT} samples to "
+                     f"fit: the fit starts with flight {skipped}, after impact {skipped}; the impacts keep their "
+                     f"numbers from the release, and no drop height is measured")
     elif rising >= MIN_SAMPLES_PER_FLIGHT:
         notes.append(f"flight 0 is a bounce, not a drop: {rising} samples before it rise into its apex along its "
                      f"free flight, so an impact before them was not found (too few samples about it): the impacts "
@@ -335,26 +339,42 @@ def sampled_enough(t, bounds):
     return [np.count_nonzero((t > lo) & (t < hi)) >= MIN_SAMPLES_PER_FLIGHT for lo, hi in bounds]
 
 
-def initial_bounds(problem, segmentation, source):
+def start_after_impact(problem, bounds):
+    """Let flight 0 of ``problem`` be the first of ``bounds``, a flight that follows an impact: it starts
+    ``CONTACT_CLEARANCE_S`` after the lowest sample of that impact, where the ball may still touch the floor."""
+    problem.release_time = max(problem.release_time, bounds[0][0] + CONTACT_CLEARANCE_S)
+    problem.first_flight_after_impact = True
+
+
+def initial_bounds(problem, segmentation, source, keep=None):
     """Flight intervals (s) from the segmentation, from the first of two flights in a row with enough samples
     to fit up to the first flight after them sampled too sparsely or not curving like a free flight; checks
-    that the flights fall with g.
+    that the flights fall with g. Sets where ``problem``'s flight 0 starts (:func:`start_after_impact` when first
+    flights are passed over).
+
+    Parameters
+    ----------
+    keep : numpy.ndarray, optional
+        Boolean mask of ``problem``'s samples still in the fit (default: all).
 
     Returns
     -------
-    (list, list of str, int)
-        The bounds, a note for where the sequence was cut and why, and how many first flights were passed
-        over for too few samples.
+    (list, list of str, list of int)
+        The bounds, a note for where the sequence was cut and why, and the numbers of the first flights
+        passed over for too few samples (the fit then starts after the last).
     """
-    t, y = problem.t, problem.y
+    keep = np.ones(problem.t.size, dtype=bool) if keep is None else keep
+    t, y = problem.t[keep], problem.y[keep]
     bounds = flight_bounds(segmentation.time, segmentation.height, segmentation.release, segmentation.impacts,
                            segmentation.noise, problem.contact_height)
     sampled = sampled_enough(t, bounds)
     skipped = next((i for i in range(len(bounds) - 1) if sampled[i] and sampled[i + 1]), 0)
+    passed_over = [i for i in range(skipped) if not sampled[i]]
     if skipped:  # the sequence starts after the impact that ends the last sparse flight
         bounds, sampled = bounds[skipped:], sampled[skipped:]
-        problem.release_time = max(problem.release_time, bounds[0][0])
-        problem.first_flight_after_impact = True
+        start_after_impact(problem, bounds)
+    elif problem.first_flight_after_impact:  # set by an earlier call
+        problem.release_time, problem.first_flight_after_impact = float(segmentation.time[segmentation.release]), False
     # keep impacts while both neighbouring flights are sampled well enough
     n_flights = next((i for i, ok in enumerate(sampled) if not ok), len(bounds))
     if n_flights < 2:
@@ -371,7 +391,7 @@ def initial_bounds(problem, segmentation, source):
     elif n_flights < len(bounds):
         notes.append(f"flight {n_flights + skipped} has fewer than {MIN_SAMPLES_PER_FLIGHT} samples: the bounce "
                      f"sequence ends before it")
-    return bounds[:kept], notes, skipped
+    return bounds[:kept], notes, passed_over
 
 
 def fit_with_drag_choice(problem, bounds, drag, held_k, held_k_relative_se, source):

@@ -64,9 +64,9 @@ FIRST_IMPACT_SPEED_FRACTION = 0.5
 #: fall's extrapolation) of the fall fitted to the samples after it.
 RELEASE_SIGMAS = 4.0
 #: Heights seen but not measured cleanly scatter far more than the clean ones (phonesim's white MOV at 30 Hz:
-#: blurred frames a few px off, one in ten 20-40 px low near the floor), so tracking jumps among them are judged
-#: against this many times the noise of the two together. On six of its seeds, at 1 the lowest frame of a
-#: bounce and the clean frames beside it were taken for a jump on four, at 3 on two, at 4 on none.
+#: blurred frames a few px off, one in ten 20-40 px low near the floor), so a step to or from one is judged as a
+#: tracking jump against this many times the noise of the two together. On six of its seeds, at 1 the lowest
+#: frame of a bounce and the clean frames beside it were taken for a jump on four, at 3 on two, at 4 on none.
 SEEN_JUMP_NOISE_FACTOR = 4.0
 
 
@@ -159,8 +159,8 @@ def find_outliers(t, y, noise):
         Sample times in s, increasing.
     y : numpy.ndarray
         Heights (any length unit L), no NaNs.
-    noise : float
-        Noise standard deviation in L.
+    noise : float or numpy.ndarray
+        Noise standard deviation in L, or one per sample (a velocity is judged by the larger of its two).
 
     Returns
     -------
@@ -177,7 +177,9 @@ def find_outliers(t, y, noise):
     trend = 2.0 * max(robust_sigma(change), abs(float(np.median(change))))
     left, right = _side_medians(velocity, SPIKE_WINDOW)
     from_left, from_right = velocity - left, velocity - right
-    threshold = SPIKE_SIGMAS * noise * np.sqrt(2.0) / dt + trend
+    noise = np.asarray(noise, dtype=float)
+    pair_noise = np.maximum(noise[:-1], noise[1:]) if noise.ndim else noise
+    threshold = SPIKE_SIGMAS * pair_noise * np.sqrt(2.0) / dt + trend
     same_side = np.sign(from_left) == np.sign(from_right)
     size = np.minimum(np.abs(from_left), np.abs(from_right))
     spikes = np.flatnonzero(same_side & (size > threshold))
@@ -376,8 +378,9 @@ def segment(time_s, height, source="trajectory", acceleration=None, seen_height=
         Heights (L) wherever the ball was seen, measured cleanly or not (a video's blurred, shaded or merged
         frames, off by a few px), NaN elsewhere; ``height`` then holds the clean ones alone. The bounces are
         found on the two together, where a clip's fast flights near the floor, blurred, show them; the
-        clean samples are marked for the fits (``Segmentation.clean``). Tracking jumps are judged against
-        ``SEEN_JUMP_NOISE_FACTOR`` times the noise of the two together.
+        clean samples are marked for the fits (``Segmentation.clean``). A step to or from a sample not measured
+        cleanly is judged as a tracking jump against ``SEEN_JUMP_NOISE_FACTOR`` times the noise of the two
+        together, one between clean samples against the noise.
 
     Returns
     -------
@@ -395,8 +398,10 @@ def segment(time_s, height, source="trajectory", acceleration=None, seen_height=
     if y.size < 3 * MIN_SAMPLES_PER_FLIGHT:
         raise InputError(f"{source}: only {y.size} valid samples, too few to find a bounce")
     noise = noise_level(y)
-    jumps = find_outliers(t, y, noise if seen_height is None else SEEN_JUMP_NOISE_FACTOR * noise)
-    if seen_height is not None:
+    if seen_height is None:
+        jumps = find_outliers(t, y, noise)
+    else:
+        jumps = find_outliers(t, y, np.where(clean_all[valid], noise, SEEN_JUMP_NOISE_FACTOR * noise))
         clean = clean_all[valid][~jumps]
     outliers = valid[jumps]
     t, y = t[~jumps], y[~jumps]
