@@ -476,3 +476,27 @@ def test_a_well_sampled_drop_before_a_sparse_rebound_is_not_called_sparse():
     assert analysis.impacts["impact"].iloc[0] == 3 and analysis.summary["hand_samples"] == 0
     assert any(note.startswith("flight 1 has fewer than 5 samples to fit: the fit starts with flight 2")
                for note in analysis.summary["notes"]), analysis.summary["notes"]
+
+
+def test_one_flight_holding_a_sample_of_its_neighbour_does_not_make_wrong_units():
+    """White MOV seed 10 (30 Hz, clean frames only about the apexes): a bounce found a frame late gave one flight a
+    sample of the flight before it; that flight curved with 7.55 m/s², and the curvature fitted to all seven
+    together, 8.2 m/s², refused the clip as 'not g'. Here the same at 30 Hz (samples slower than 1 m/s, and the
+    last one before impact 3): 6.96 m/s² together, 6.4 for that flight, 9.6-9.9 for the others. The units are
+    judged by the median of the flights' own curvatures; heights in cm read as m are still refused."""
+    from dropfit.analysis.segmentation import NotFreeFallError, check_free_fall
+    from dropfit.synth import simulate_drop
+
+    truth = simulate_drop(0.6, 0.02, {"kind": "constant", "e0": 0.89}, release_time_s=0.2)
+    time = np.arange(0.0, 4.0, 1 / 30)
+    heights = truth.height(time) + np.random.default_rng(1).normal(0.0, 0.0003, time.size)
+    speed = np.abs(truth.height(time + 1e-4) - truth.height(time - 1e-4)) / 2e-4
+    touchdowns = truth.impacts["t_s"].to_numpy()[:7]
+    edges = np.concatenate([[truth.release_time_s], touchdowns])
+    bounds = [(lo + 0.005, hi - 0.005) for lo, hi in zip(edges[:-1], edges[1:])]
+    last = np.flatnonzero(time < touchdowns[2])[-1]  # flight 2's last frame, before impact 3
+    bounds[2], bounds[3] = (bounds[2][0], time[last] - 0.005), (time[last] - 0.005, bounds[3][1])
+    kept = (speed < 1.0) | (np.arange(time.size) == last)
+    assert check_free_fall(time[kept], heights[kept], bounds, 9.81, "log") == len(bounds)
+    with pytest.raises(NotFreeFallError, match="not g"):
+        check_free_fall(time[kept], 100.0 * heights[kept], bounds, 9.81, "log")  # cm read as m
