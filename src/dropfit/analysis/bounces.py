@@ -170,8 +170,7 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
     finite = np.isfinite(height_m)
     # times relative to the first sample: Unix-epoch stamps would leave no digits for a parabola
     origin = float(time_s[finite][0]) if finite.any() else 0.0
-    segmentation = segment(time_s - origin, height_m, source, acceleration=g,
-                           seen_height=None if seen_height_m is None else np.asarray(seen_height_m, dtype=float))
+    segmentation = segment(time_s - origin, height_m, source, acceleration=g, seen_height=seen_height_m)
     notes = list(segmentation.notes)
     fit_time, fit_height, noise = segmentation.fit_samples()
     unknown = ball_kind(None)
@@ -199,20 +198,23 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
         if outliers.size and outliers.size <= kept.outliers_allowed:
             left = keep.copy()
             left[np.flatnonzero(keep)[np.isin(problem.t[keep], fit.model.t[outliers])]] = False
-            sparse = next((i for i, ok in enumerate(sampled_enough(problem.t[left], bounds)) if not ok), None)
-            if sparse is None:
+            sampled = sampled_enough(problem.t[left], bounds)
+            first, end = fittable_run(sampled)
+            if first == 0 and end == len(bounds):
                 keep = left
-            elif sparse >= 2:  # the outliers took a flight below what a fit needs: the sequence ends before it
-                notes.append(f"flight {skipped + sparse} has fewer than {MIN_SAMPLES_PER_FLIGHT} samples once its "
+                continue
+            # the outliers took a flight below what a fit needs: the sequence starts after it or ends before it
+            if end - first < 2:
+                raise InputError(f"{source}: flight {skipped + sampled.index(False)} has fewer than "
+                                 f"{MIN_SAMPLES_PER_FLIGHT} samples once its outliers of the flight fit are left out: no "
+                                 f"impact is left to measure")
+            if end < len(bounds):
+                notes.append(f"flight {skipped + end} has fewer than {MIN_SAMPLES_PER_FLIGHT} samples once its "
                              f"outliers of the flight fit are left out: the bounce sequence ends before it")
-                bounds = bounds[:sparse]
-            elif len(bounds) - sparse - 1 >= 2:  # ... or starts after it
-                passed_over.append(skipped + sparse)
-                bounds = bounds[sparse + 1:]
+            passed_over += [skipped + i for i in range(first) if not sampled[i]]
+            bounds = bounds[first:end]
+            if first:
                 start_after_impact(problem, bounds)
-            else:
-                raise InputError(f"{source}: flight {skipped + sparse} has fewer than {MIN_SAMPLES_PER_FLIGHT} samples "
-                                 f"once its outliers of the flight fit are left out: no impact is left to measure")
             continue
         unresolved = first_unresolved_impact(fit, problem.noise)
         if unresolved is None:
@@ -339,6 +341,13 @@ def sampled_enough(t, bounds):
     return [np.count_nonzero((t > lo) & (t < hi)) >= MIN_SAMPLES_PER_FLIGHT for lo, hi in bounds]
 
 
+def fittable_run(sampled):
+    """(first, end): the flights to fit, from the first of two in a row ``sampled`` well enough (0 when none are)
+    up to the first after it that is not (its index; their number when none is)."""
+    first = next((i for i in range(len(sampled) - 1) if sampled[i] and sampled[i + 1]), 0)
+    return first, next((i for i in range(first, len(sampled)) if not sampled[i]), len(sampled))
+
+
 def start_after_impact(problem, bounds):
     """Let flight 0 of ``problem`` be the first of ``bounds``, a flight that follows an impact: it starts
     ``CONTACT_CLEARANCE_S`` after the lowest sample of that impact, where the ball may still touch the floor."""
@@ -368,15 +377,15 @@ def initial_bounds(problem, segmentation, source, keep=None):
     bounds = flight_bounds(segmentation.time, segmentation.height, segmentation.release, segmentation.impacts,
                            segmentation.noise, problem.contact_height)
     sampled = sampled_enough(t, bounds)
-    skipped = next((i for i in range(len(bounds) - 1) if sampled[i] and sampled[i + 1]), 0)
+    # keep impacts while both neighbouring flights are sampled well enough
+    skipped, end = fittable_run(sampled)
     passed_over = [i for i in range(skipped) if not sampled[i]]
     if skipped:  # the sequence starts after the impact that ends the last sparse flight
-        bounds, sampled = bounds[skipped:], sampled[skipped:]
+        bounds = bounds[skipped:]
         start_after_impact(problem, bounds)
     elif problem.first_flight_after_impact:  # set by an earlier call
         problem.release_time, problem.first_flight_after_impact = float(segmentation.time[segmentation.release]), False
-    # keep impacts while both neighbouring flights are sampled well enough
-    n_flights = next((i for i, ok in enumerate(sampled) if not ok), len(bounds))
+    n_flights = end - skipped
     if n_flights < 2:
         raise InputError(f"{source}: no bounce with at least {MIN_SAMPLES_PER_FLIGHT} samples in the flights "
                          f"before and after it")

@@ -753,8 +753,9 @@ def refitted_repeats(x_px, y_px, quality):
 
 
 def _table(rows, times_s):
-    x, y, r, quality, centre_se, fit_rms = (np.asarray(column, float) if k != 3 else np.asarray(column, object)
-                                            for k, column in enumerate(zip(*rows) if rows else ((),) * 6))
+    x, y, r, quality, centre_se, fit_rms = zip(*rows) if rows else ((),) * 6
+    x, y, r, centre_se, fit_rms = (np.asarray(column, float) for column in (x, y, r, centre_se, fit_rms))
+    quality = np.asarray(quality, object)
     repeats = refitted_repeats(x, y, quality)
     quality[repeats] = QUALITY_DUPLICATE
     for column in (x, y, r, centre_se, fit_rms):
