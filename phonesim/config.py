@@ -26,6 +26,8 @@ class BallStyle:
         refsim ball preset ("tennis", "table_tennis", "rubber", "steel", ...).
     radius_m : float or None
         Radius in m; None keeps the preset's.
+    drag_coefficient : float or None
+        C_d of its quadratic air drag; None keeps the preset's (a real ball's differs from any nominal value).
     colour_rgb : tuple
         Base colour (RGB 0-255) of the lit ball.
     ambient : float
@@ -38,6 +40,7 @@ class BallStyle:
 
     model: str = "tennis"
     radius_m: float | None = None
+    drag_coefficient: float | None = None
     colour_rgb: RGB = (205, 220, 60)
     ambient: float = 0.6
     specular: float = 0.0

@@ -43,6 +43,8 @@ class BallMotion:
         ball = refsim.preset(config.ball.model)
         if config.ball.radius_m is not None:
             ball = replace(ball, radius_m=config.ball.radius_m)
+        if config.ball.drag_coefficient is not None:
+            ball = replace(ball, drag_coefficient=config.ball.drag_coefficient)
         self.hand = config.hand
         catch = None
         if config.hand.catch_after_impact is not None:

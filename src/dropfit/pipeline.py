@@ -187,8 +187,9 @@ def analysis_options(attrs, settings=None, sample_interval_s=0.0):
         ``nominal_drag_relative_se`` (a smooth ball of the kind's C_d, size and mass, 1/m; a tennis or
         table-tennis ball's size or mass not given: as its rules allow; else 0 when either is unknown),
         ``noise_correlation``
-        (:data:`dropfit.video.quality.TRACKED_CENTRE_CORRELATION` for a video, else 0), and the ball kind's
-        contact-time prior, exponent and longest contact time (:mod:`dropfit.balls`) with the radius.
+        (:data:`dropfit.video.quality.TRACKED_CENTRE_CORRELATION` for a video, else 0),
+        ``speed_dependent_errors`` (a video: its drag is held at the nominal k where one is known), and the ball
+        kind's contact-time prior, exponent and longest contact time (:mod:`dropfit.balls`) with the radius.
     """
     settings = settings or Settings()
     gravity = settings.site_gravity()
@@ -216,6 +217,7 @@ def analysis_options(attrs, settings=None, sample_interval_s=0.0):
         "nominal_drag_k_per_m": drag[0],
         "nominal_drag_relative_se": drag[1],
         "noise_correlation": TRACKED_CENTRE_CORRELATION if video else 0.0,
+        "speed_dependent_errors": video,
         "gravity_se_m_s2": gravity.se_m_s2,
         "gravity_scaled": gravity_scaled(attrs),
         "contact_time_prior_s": (kind.contact_time_s, kind.contact_time_se_s),

@@ -740,10 +740,8 @@ class SearchedFrame(NamedTuple):
 def searched_frame(frame, background, expected_radius_px=None):
     """The frame as :func:`find_blobs` searches it: reduced 1-4 times (by the expected radius; twice without
     one), with its hand pixels, as a :class:`SearchedFrame` to search in several contrast channels."""
-    if expected_radius_px:
-        scale = int(np.clip(expected_radius_px // 4, 1, 4))
-    else:
-        scale = 2
+    scale = int(np.clip(expected_radius_px // 4, 1, 4)) if expected_radius_px else 2
+    scale = max(1, min(scale, *frame.shape[:2]))  # a strip thinner than the reduction is searched as it is
     if scale > 1:
         size = (frame.shape[1] // scale, frame.shape[0] // scale)
         frame = cv2.resize(frame[: size[1] * scale, : size[0] * scale], size, interpolation=cv2.INTER_AREA)

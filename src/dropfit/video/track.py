@@ -313,6 +313,8 @@ class BallTracker:
             x, y, reach = near
             left, top = max(int(x - reach), self.left), max(int(y - reach), self.top)
             right, bottom = min(int(x + reach) + 1, self.right), min(int(y + reach) + 1, self.bottom)
+            if right <= left or bottom <= top:  # the square lies wholly outside the searched area
+                return None
             background = self.background.cropped(left, top, right, bottom)
         region = frame[top:bottom, left:right]
         fixtures = [(x - left, y - top, r) for x, y, r in self.contrast.fixtures]
