@@ -15,7 +15,8 @@ plane is a direct length standard over the whole drop, and an upright one measur
 well (below); gravity is the most precise (about 0.004 % on the default phone clip) but carries what
 its model leaves out (without a ruler or target to rectify the rows, a camera tilt's keystone adds a
 speed-dependent curvature, +0.2 % at 0.5°); the tracked diameter depends on the
-edge threshold, blur and compression (about 0.2 %). Every other available scale is reported with
+edge threshold, the ball's shading, blur and compression (1–3 % on phonesim's colour clips:
+:data:`dropfit.videolog.DIAMETER_SCALE_RELATIVE_SE`). Every other available scale is reported with
 its disagreement relative to the chosen one, s_other / s_chosen − 1.
 
 Ruler
