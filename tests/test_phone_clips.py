@@ -255,9 +255,9 @@ def test_a_ruler_read_in_the_wrong_marks_is_refused_by_the_balls_size(tmp_path):
 def test_a_ball_whose_drag_is_not_its_kinds_is_covered(tmp_path, drag_factor):
     """The small yellow ball at 120 frames/s (seed 3) with 1.1 or 0.9 times the C_d its kind is analysed with. Its
     H.264 centres read up to 0.45 px higher falling than rising near the floor (none of it in the same clip encoded
-    losslessly), and the free drag fit took that for 20 % more drag: e came out 2.0-3.4 se high. A video's drag is
-    now held at its kind's value with that value's se (11 %), so a ball whose C_d is not the nominal one is
-    covered too."""
+    losslessly), and the free drag fit took that for 20 % more drag: e came out 2.0-3.4 se high. A video's flights'
+    k is now widened by what a centre error of 1 px growing with speed makes of it and combined with the kind's
+    value (11 % se), and a ball whose C_d is not the nominal one is covered too."""
     import dataclasses
 
     import phonesim
@@ -270,7 +270,7 @@ def test_a_ball_whose_drag_is_not_its_kinds_is_covered(tmp_path, drag_factor):
     result = dropfit.analyse_recording(path, ball_radius_m=physics["radius_m"], ball_mass_kg=physics["mass_kg"],
                                        ball_type=physics["ball_model"], ruler_tick_m=0.01)
     assert result.analysis.summary["drag_model"] == "nominal"
-    assert "the flights' curvature takes for drag" in result.analysis.summary["drag_why"]
+    assert "curvature takes such an error for drag" in result.analysis.summary["drag_why"]
     _check(result, truth, 2)
 
 

@@ -345,7 +345,7 @@ def test_a_failed_recording_s_page_carries_its_reason_the_date_and_the_version(t
 def test_settings_that_differ_between_recordings_are_counted():
     fits = [{"config": {"drag": drag}, "ball": {"type": "tennis"}} for drag in ("auto", "off", "auto")]
     html = run_html(fits + [{"status": "failed", "error": "x"}])
-    assert ("differs: auto: fitted where the BIC asks for it (a video: held at that of the ball kind, where known) "
+    assert ("differs: auto: fitted where the BIC asks for it (a video: combined with that of the ball kind, where known) "
             "(2 recordings); off: never fitted (1 recording)") in html
     assert "no recording was analysed" in run_html([{"status": "failed", "error": "x"}])
 

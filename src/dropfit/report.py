@@ -205,8 +205,8 @@ def _itf_setting(config):
             f"±{_num(config.get('itf_drop_height_tolerance_m'), '.2f')} m measured, others predicted)")
 
 
-_DRAG_OPTIONS = {"auto": "auto: fitted where the BIC asks for it (a video: held at that of the ball kind, where known)",
-                 "off": "off: never fitted", "on": "on: always fitted"}
+_DRAG_OPTIONS = {"auto": "auto: fitted where the BIC asks for it (a video: combined with that of the ball kind, "
+                         "where known)", "off": "off: never fitted", "on": "on: always fitted"}
 
 #: The settings every page shows: label and the HTML text of one fit result's value.
 _SETTINGS = [

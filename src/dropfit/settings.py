@@ -253,7 +253,7 @@ OPTIONS = {option.name: option for option in (
            column=True),
     Option("altitude_m", "height of the site above sea level in m (with --latitude-deg; default 0)", _SITE,
            "the site's height above sea level in m", -1000.0, 10000.0, True, config=("altitude_m",), column=True),
-    Option("drag", "quadratic air drag k: fitted when BIC prefers it (auto; a video's is held where known), never or "
+    Option("drag", "quadratic air drag k: fitted when BIC prefers it (auto; a video's never alone), never or "
            "always; when not fitted, held at a smooth sphere's k if the ball's radius and mass are known", _ANALYSE,
            choices=("auto", "off", "on"), config=("analysis", "drag"), text=True),
     Option("itf_drop_height_m", "ITF drop height in m (bottom of the ball above the floor)", _ITF,
@@ -416,8 +416,9 @@ class Settings:
     drag : {"auto", "off", "on"}
         Quadratic air drag k (1/m): fitted when the BIC prefers it, never, or always. When not
         fitted it is held at that of a smooth sphere of the ball's radius and mass (0 when either is
-        unknown). Default ``"auto"``; with it a video's k is held wherever it is known (its tracked
-        centres' errors change with speed, which the flights' curvature takes for drag).
+        unknown). Default ``"auto"``; with it a video's flights' k is never used alone where the nominal one
+        is known: widened by what a centre error growing with speed makes of it, it is combined with the
+        nominal k and held there.
     itf_drop_height_m : float
         ITF drop height in m (bottom of the ball above the floor). Default 2.54 (ITF Rules of
         Tennis, Appendix I).

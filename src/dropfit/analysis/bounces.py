@@ -25,7 +25,7 @@ import pandas as pd
 from ..balls import ball_kind, contact_time_at
 from ..errors import InputError
 from ..numerics import robust_sigma
-from ..physics import STANDARD_GRAVITY_M_S2, flight_height, time_from_apex
+from ..physics import STANDARD_GRAVITY_M_S2, flight_height, flight_velocity, time_from_apex
 from .flights import (MIN_SAMPLES_PER_FLIGHT, FlightModel, bic, combine_with_prior, first_misfit_flight, first_spurious_impact,
                       fit_flights, parabola_start)
 from .impacts import (IMPACT_COLUMNS, ImpactQuantities, contact_resolvable, quantity_index, rest_time,
@@ -76,7 +76,7 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
                     nominal_drag_k_per_m=0.0, noise_correlation=0.0, gravity_se_m_s2=0.0, gravity_scaled=False,
                     contact_time_prior_s=None, contact_time_exponent=None,
                     nominal_drag_relative_se=NOMINAL_DRAG_RELATIVE_SE, max_contact_time_s=None, ball_radius_m=None,
-                    contact_height_found=False, seen_height_m=None, speed_dependent_errors=False):
+                    contact_height_found=False, seen_height_m=None, speed_dependent_error_m=0.0):
     """Segment a drop-test trajectory into flights, fit them and measure every impact.
 
     Parameters
@@ -159,12 +159,15 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
         clip whose fast flights near the floor are blurred still shows where its bounces are, and the
         impacts are numbered from the release even when the first flights have too few clean samples to
         be fitted.
-    speed_dependent_errors : bool
-        The heights' errors change with the ball's speed, as a video's ball centres do (motion blur, the
-        lossy coding of a moving ball). The flights' curvature takes such an error for drag (phonesim's clips:
-        k 20 % high from H.264 at 120 frames/s, 55 % low from the blur of a lossless 30 frames/s clip, e 2–5
-        standard errors off), so with ``drag="auto"`` and a ``nominal_drag_k_per_m`` known, k is held at the
-        nominal value, its standard error carried as a systematic error, and not fitted (``drag="on"`` fits it).
+    speed_dependent_error_m : float
+        Largest height error (m, at the fastest sample) that may change with the ball's speed, as a video's
+        ball centres do (motion blur, the lossy coding of a moving ball): taken as growing with v|v|, falling
+        high and rising low. The flights' curvature takes such an error for drag (phonesim's clips: k 20 %
+        high from H.264 at 120 frames/s, 55 % low from the blur of a lossless 30 frames/s clip, e 2–5 standard
+        errors off). With ``drag="auto"`` and a ``nominal_drag_k_per_m`` known, the flights' k is then never
+        used alone: its standard error is widened by the k such an error makes, it is combined with the
+        nominal k (inverse-variance weights), and k is held there, its standard error carried as a systematic
+        error (``drag="on"`` fits it freely).
 
     Returns
     -------
@@ -188,15 +191,15 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
                          float(segmentation.time[segmentation.release]), contact_prior)
     bounds, cut, passed_over = initial_bounds(problem, segmentation, source)
     held_k = float(nominal_drag_k_per_m or 0.0)
-    drag_held = drag == "auto" and speed_dependent_errors and held_k > 0
+    speed_error = float(speed_dependent_error_m) if drag == "auto" and held_k > 0 else 0.0
     longest = (unknown.max_contact_time_s if max_contact_time_s is None else float(max_contact_time_s),
                contact_prior[1][0])
     keep = np.ones(problem.t.size, dtype=bool)
     while True:
         skipped = passed_over[-1] + 1 if passed_over else 0  # the first fitted flight's number
         kept = problem.subset(keep)
-        fit, bics, held_drag = fit_with_drag_choice(kept, bounds, "off" if drag_held else drag, held_k,
-                                                    float(nominal_drag_relative_se), source)
+        fit, bics, held_drag = fit_with_drag_choice(kept, bounds, drag, held_k, float(nominal_drag_relative_se),
+                                                    source, speed_error)
         earlier_release = release_extension(fit, problem)
         if earlier_release is not None and earlier_release < problem.release_time:
             problem.release_time = earlier_release
@@ -288,12 +291,13 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
             "residual_outlier_samples": int(left_out),
             "first_flight_is_a_bounce": bool(skipped) or rising >= MIN_SAMPLES_PER_FLIGHT,
             "first_impact": skipped + 1}
-    if drag_held:
-        data["drag_why"] = (f"held at the nominal k of the ball's kind, size and mass ({held_k:.3g} 1/m ± "
-                            f"{float(nominal_drag_relative_se):.0%}), not fitted: the heights' errors change with the "
-                            f"ball's speed (a video's centres: motion blur, the codec), which the flights' curvature "
-                            f"takes for drag; its standard error is carried into every e, height and contact time as "
-                            f"a systematic error (the drag option 'on' fits k)")
+    if speed_error > 0:
+        data["drag_why"] = (f"the ball's nominal k ({held_k:.3g} 1/m ± {float(nominal_drag_relative_se):.0%}) combined "
+                            f"with the flights' k, whose standard error is widened by what an error of the heights "
+                            f"growing with the ball's speed (a video's centres: motion blur, the codec; "
+                            f"{1e3 * speed_error:.2g} mm at the fastest sample) makes of it: the flights' curvature "
+                            f"takes such an error for drag; k is held there and its standard error carried into every "
+                            f"e, height and contact time as a systematic error (the drag option 'on' fits k)")
     return _assemble(fit, bics, problem.subset(keep), origin, source, uncertainty, data, notes, kinds)
 
 
@@ -416,10 +420,12 @@ def initial_bounds(problem, segmentation, source, keep=None):
     return bounds[:kept], notes, passed_over
 
 
-def fit_with_drag_choice(problem, bounds, drag, held_k, held_k_relative_se, source):
+def fit_with_drag_choice(problem, bounds, drag, held_k, held_k_relative_se, source, speed_error_m=0.0):
     """Fit the flights in ``bounds`` with and (``drag="auto"``) without a free drag parameter; keep
     the one the BIC prefers. Without a free k, k is held at ``held_k`` (1/m, relative se
-    ``held_k_relative_se``) combined with what the free fit says about it.
+    ``held_k_relative_se``) combined with what the free fit says about it. With ``speed_error_m`` > 0 (m, see
+    :func:`analyse_bounces`' ``speed_dependent_error_m``) k is always held so, the free k's standard error
+    widened by :func:`speed_error_drag_se`.
 
     Returns
     -------
@@ -445,10 +451,10 @@ def fit_with_drag_choice(problem, bounds, drag, held_k, held_k_relative_se, sour
         # compare the two models on the same samples: those the larger model kept
         rival = fit_flights(t, y, fit.bounds, False, g, fit.result.x[:-1], held_k)
         bics[False] = bic(rival[1])
-        if bics[False] <= bics[True]:
+        if bics[False] <= bics[True] or speed_error_m > 0:
             if held_k > 0:
-                held_k, held_drag["held_k_se"], weight = combine_with_prior(fit.result, held_k,
-                                                                            held_drag["held_k_se"])
+                held_k, held_drag["held_k_se"], weight = combine_with_prior(
+                    fit.result, held_k, held_drag["held_k_se"], speed_error_drag_se(fit, speed_error_m))
                 free = fit.model
                 held_drag["held_k_slopes"] = {
                     "gravity": weight * refit_sensitivity(fit.result, free, free, "g", 1e-4)[-1],
@@ -458,6 +464,19 @@ def fit_with_drag_choice(problem, bounds, drag, held_k, held_k_relative_se, sour
                 held.misfit_cut = held.misfit_cut if held.misfit_cut is not None else fit.misfit_cut
                 fit = held
     return fit, bics, held_drag
+
+
+def speed_error_drag_se(fit, error_m):
+    """The change of a free fit's k (1/m) that a height error growing with the ball's speed makes: ``error_m``
+    (m) at the fastest sample, as v|v| (falling high, rising low), through the fit's linearised response;
+    0 without ``error_m``."""
+    if not error_m > 0:
+        return 0.0
+    model = fit.model
+    _, t_apex, k = model.unpack(fit.result.x)
+    speed = flight_velocity(model.t, t_apex[model.flight], 0.0, k, model.g)
+    pattern = error_m * speed * np.abs(speed) / float(np.max(speed**2))
+    return abs(float(refit_response(fit.result, pattern)[-1]))
 
 
 #: A sample whose flight-fit residual exceeds this many noise standard deviations is an outlier.

@@ -226,9 +226,10 @@ def first_misfit_flight(model, result, noise, outlier_sigmas=math.inf, max_outli
     return None
 
 
-def combine_with_prior(result, prior_k, prior_se):
+def combine_with_prior(result, prior_k, prior_se, systematic_se=0.0):
     """k (1/m) and its se from the free-k fit ``result`` combined with the prior ``prior_k`` ± ``prior_se``
-    by inverse-variance weighting: flights that cannot pin k down on their own still narrow it.
+    by inverse-variance weighting: flights that cannot pin k down on their own still narrow it. The free k's
+    standard error is its fit's and ``systematic_se`` (1/m), combined.
 
     Returns
     -------
@@ -236,7 +237,7 @@ def combine_with_prior(result, prior_k, prior_se):
         k, its se, and the weight of the free fit's k in it (0 … 1): what moves the free k (a held g,
         the length scale) moves the combined k by that fraction.
     """
-    data_se = float(np.sqrt(max(fit_covariance(result)[-1, -1], 0.0)))
+    data_se = float(np.hypot(np.sqrt(max(fit_covariance(result)[-1, -1], 0.0)), systematic_se))
     if not data_se > 0:
         return prior_k, prior_se, 0.0
     weights = np.array([1.0 / data_se**2, 1.0 / prior_se**2])

@@ -34,6 +34,14 @@ CLEAN_QUALITIES = (QUALITY_OK, QUALITY_BLURRED)
 #: independent errors assumed, the intervals of 200 small clips covered the truth only ~90 %.
 TRACKED_CENTRE_CORRELATION = 0.2
 
+#: Largest error of a tracked centre that changes with the ball's speed (px, at its fastest), which the flights'
+#: curvature takes for drag. Measured against phonesim's truth: the yellow ball at 120 fps read 0.3-0.45 px
+#: higher falling than rising near the floor in H.264 (crf 18) and none of it encoded losslessly; the red ball,
+#: blurred over half a frame interval at 30 fps, 0.15-0.25 px high in its fast frames losslessly, 0.3-0.5 px in
+#: H.264. Taken as twice the largest of these: neither its shape nor how it grows at the fastest speeds, by the
+#: floor, was measured (at 0.5 px the yellow ball's seed 3 still read e 2.1 se high).
+SPEED_DEPENDENT_CENTRE_ERROR_PX = 1.0
+
 #: A partial frame enters the trajectory when its circle fit's centre standard error and its RMS
 #: residual are at most these, px.
 MAX_PARTIAL_CENTRE_SE_PX = 0.1
