@@ -291,7 +291,7 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
             "residual_outlier_samples": int(left_out),
             "first_flight_is_a_bounce": bool(skipped) or rising >= MIN_SAMPLES_PER_FLIGHT,
             "first_impact": skipped + 1}
-    if speed_error > 0:
+    if speed_error > 0 and not fit.model.with_drag:  # (a held refit that failed leaves the free fit)
         data["drag_why"] = (f"the ball's nominal k ({held_k:.3g} 1/m ± {float(nominal_drag_relative_se):.0%}) combined "
                             f"with the flights' k, whose standard error is widened by what an error of the heights "
                             f"growing with the ball's speed (a video's centres: motion blur, the codec; "
