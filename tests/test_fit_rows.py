@@ -108,3 +108,22 @@ def test_a_note_with_commas_reads_back_whole(tmp_path):
     back = read_table(tmp_path / "impacts.csv")
     assert back["note"].iloc[1] == table["note"].iloc[1]
     assert list(fit_rows(back)) == [0]
+
+
+def test_the_drag_note_says_combined_only_where_k_was_combined():
+    """With the drag option 'off' k is the kind's nominal value, never weighed against the flights': the fit
+    record said "combined with what the flights say about k" there too. With 'auto' and k held, it is."""
+    truth = simulate_drop(1.0, RADIUS_M, mass_kg=MASS_KG, contact_model=LinearContact(3e4, 8.2))
+    log = sample_height_log(truth, np.random.default_rng(21), 2000.0, noise_m=1e-4, offset_m=0.0,
+                            dropout_fraction=0.0)
+    log = log[log["time_s"] < 2.6]
+    attrs = {"ball_mass_kg": MASS_KG, "ball_radius_m": RADIUS_M, "ball_type": "tennis"}
+    notes = {}
+    for drag in ("off", "auto"):
+        result = analyse_bounces(log["time_s"], log["y_m"], contact_height_m=RADIUS_M, drag=drag,
+                                 nominal_drag_k_per_m=1e-5)
+        record = fit_summary(analysis_summary(result, attrs), result.impacts, Settings())
+        notes[drag] = (record["drag"]["model"], record["drag"].get("note", ""), record["drag"]["why"])
+    assert notes["off"][0] == "nominal" and "k is not fitted freely" in notes["off"][1]
+    assert "combined" not in notes["off"][1] and notes["off"][2] == "fixed by the --drag option"
+    assert notes["auto"][0] == "nominal" and "combined with what the flights say" in notes["auto"][1]

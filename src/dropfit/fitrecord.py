@@ -128,10 +128,11 @@ def fit_summary(summary, impacts, settings=None, ball_type=None):
     }
     if summary["drag_model"] == "nominal" and not summary.get("drag_why"):
         kind = ball_kind(attrs.get("ball_type"))
+        # a free fit was made and weighed only where both models were compared; with --drag off k is the kind's
+        combined = " combined with what the flights say about k" if np.isfinite(summary["bic_quadratic_drag"]) else ""
         drag["note"] = (f"k is not fitted freely: held at that of a smooth {kind.name} ball of its size and mass "
-                        f"(C_d = {kind.drag_coefficient:g} ± {kind.drag_coefficient_se:g}) combined with what the "
-                        f"flights say about k; its standard error is carried into every e, height and contact time "
-                        f"as a systematic error")
+                        f"(C_d = {kind.drag_coefficient:g} ± {kind.drag_coefficient_se:g}){combined}; its standard "
+                        f"error is carried into every e, height and contact time as a systematic error")
     size_note = summary.get("ball_size_note")
     if isinstance(size_note, str) and size_note:  # a regulation ball's size and mass stand in (NaN read back: none)
         drag["note"] = "; ".join(filter(None, (drag.get("note"), size_note)))

@@ -298,6 +298,11 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
                             f"{1e3 * speed_error:.2g} mm at the fastest sample) makes of it: the flights' curvature "
                             f"takes such an error for drag; k is held there and its standard error carried into every "
                             f"e, height and contact time as a systematic error (the drag option 'on' fits k)")
+    elif speed_error > 0:
+        data["drag_why"] = (f"the flights' own k: the refit with k held at the ball's nominal k ({held_k:.3g} 1/m) "
+                            f"combined with theirs failed, so k is the free fit's, whose standard error leaves out "
+                            f"what a centre error growing with the ball's speed makes of it (treat e as less certain "
+                            f"than stated)")
     return _assemble(fit, bics, problem.subset(keep), origin, source, uncertainty, data, notes, kinds)
 
 
