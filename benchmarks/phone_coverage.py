@@ -4,14 +4,14 @@ Each preset of ``tests/test_phone_clips.py`` is rendered at half size for severa
 through PyAV, byte for byte the same file for a seed) and analysed as a user would, with the ball's
 radius, mass and kind and the preset's scale option. No ball flies with the drag of its kind's nominal C_d,
 which dropfit may hold (a real ball's differs): the even seeds' ball has 1.1 times the preset's C_d, the odd
-seeds' 0.9 times (``DRAG_COEFFICIENT_FACTORS``; the kinds' C_d standard errors are 9–11 %). Each analysed impact is matched to the generator's
+seeds' 0.9 times (``DRAG_COEFFICIENT_FACTORS``; the kinds' C_d standard errors are 10.6–10.9 %). Each analysed impact is matched to the generator's
 impact with the nearest touchdown time; z = (e − e_true) / se with se from the 95 % interval.
 
     PYTHONPATH=$PWD/src:$PWD python benchmarks/phone_coverage.py [--seeds 0-11] [--workers 2]
 
 Writes ``benchmarks/phone_coverage.csv`` (one row per impact, or per refused clip with its message),
 ``benchmarks/phone_coverage_summary.csv`` (per preset: clips, refusals, impacts, coverage, mean z,
-largest |z|, largest rebound-height error) and the chart ``benchmarks/phone_coverage.png``.
+largest |z|, largest rebound-height error, rebound heights inside their 95 % interval) and the chart ``benchmarks/phone_coverage.png``.
 """
 
 import argparse
@@ -76,6 +76,7 @@ def clip_rows(job):
         rows.append(dict(base, impact=int(impact["impact"]), true_impact=nearest + 1, e=impact["e"], e_se=se,
                          e_true=e_true, z=(impact["e"] - e_true) / se if se > 0 else np.nan,
                          h_after_error_mm=1e3 * (impact["h_after_m"] - true["h_after_m"].iloc[nearest]),
+                         h_after_se_mm=1e3 * impact["h_after_se_m"],
                          drag_k_per_m=result.analysis.summary["drag_k_per_m"],
                          calibration=result.trajectory.attrs.get("calibration")))
     seconds = time.perf_counter() - start
@@ -94,6 +95,7 @@ def summary_of(table):
                      "coverage": inside.mean() if len(measured) else np.nan,
                      "mean_z": measured["z"].mean(), "max_abs_z": measured["z"].abs().max(),
                      "max_abs_h_error_mm": measured["h_after_error_mm"].abs().max(),
+                     "h_inside": int((measured["h_after_error_mm"].abs() <= Z95 * measured["h_after_se_mm"]).sum()),
                      "impacts_not_first": int((measured["impact"] != measured["true_impact"]).sum())})
     return pd.DataFrame(rows)
 

@@ -111,6 +111,26 @@ def test_px_scale_from_gravity_axis_up(vacuum_truth, tmp_path):
     assert trajectory.attrs["scale_m_per_px"] == pytest.approx(1.0 / PX_PER_M, rel=GRAVITY_SCALE_RTOL)
 
 
+def test_gravity_scale_carries_an_error_growing_with_speed(vacuum_truth):
+    """Rows that read 1 px off at the fastest sample, growing as v² (a blurred or coded ball's centre reads off
+    along its path): they bend every parabola like another g, and the scale from gravity comes out off by about
+    1 px over the largest fall below an apex, far outside its statistical standard error. Told of the error,
+    the scale's standard error carries it, and the truth is inside its 95 % interval."""
+    from dropfit.heightlog import scale_from_gravity
+
+    frame = px_log(vacuum_truth, noise_m=0.0005, seed=6)
+    time, rows = frame.iloc[:, 0].to_numpy(), frame.iloc[:, 1].to_numpy()
+    speed = np.gradient(vacuum_truth.height(time), time)
+    error_px = 1.0
+    rows = rows + error_px * speed**2 / np.max(speed**2)  # down the image: the fast ball reads low
+    alone = scale_from_gravity(time, rows)
+    told = scale_from_gravity(time, rows, speed_error_px=error_px)
+    true = -1.0 / PX_PER_M
+    assert alone[0] == told[0]  # the value is the same; its uncertainty is not
+    assert abs(alone[0] - true) > 5 * alone[1]
+    assert abs(told[0] - true) < 1.96 * told[1] < 0.05 * abs(true)
+
+
 #: The drag-aware gravity scale of a tennis ball falling from 254 cm must be this close to the truth.
 DRAG_GRAVITY_SCALE_RTOL = 1e-3  # 1 (0.1 %)
 

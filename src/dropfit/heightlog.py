@@ -421,12 +421,14 @@ def flight_acceleration(time_s, height_px, source="log", nominal_drag_k_per_m=0.
 
 
 def scale_from_gravity(time_s, height_px, gravity_m_s2=STANDARD_GRAVITY_M_S2, source="log", nominal_drag_k_per_m=0.0,
-                       nominal_drag_relative_se=0.25, seen_px=None):
+                       nominal_drag_relative_se=0.25, seen_px=None, speed_error_px=0.0):
     """Metres per pixel from the curvature of the flights, drag included: s = g / A_px.
 
     A_px is the flights' shared acceleration in px/s² from :func:`flight_acceleration` (flights found on
     ``seen_px`` when given); its standard
-    error includes what the choice of drag model does to it. The uncertainty of g itself is not in it:
+    error includes what the choice of drag model does to it, and what a position error growing with the
+    ball's speed does (``speed_error_px``, px at the fastest fitted sample, as v²: the relative error
+    ``speed_error_px`` / the largest fall below an apex). The uncertainty of g itself is not in it:
     an analysis carries that (it scales every length with the scale).
 
     Returns
@@ -438,7 +440,7 @@ def scale_from_gravity(time_s, height_px, gravity_m_s2=STANDARD_GRAVITY_M_S2, so
     sign, fit = flight_acceleration(time_s, height_px, source, nominal_drag_k_per_m, nominal_drag_relative_se,
                                     gravity_m_s2, seen_px)
     scale = gravity_m_s2 / fit.acceleration
-    relative_se = fit.acceleration_se / fit.acceleration
+    relative_se = float(np.hypot(fit.acceleration_se / fit.acceleration, speed_error_px / fit.largest_fall))
     if relative_se > MAX_GRAVITY_SCALE_RELATIVE_SE:
         raise InputError(f"{shown_path(source)}: cannot calibrate pixels from gravity: the flights give the scale only to "
                          f"{100 * relative_se:.1f} %; give scale_m_per_px")

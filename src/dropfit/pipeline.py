@@ -182,21 +182,24 @@ def analysis_options(attrs, settings=None, sample_interval_s=0.0):
         from gravity), ``drag``, ``contact_height_m`` (floor + radius, m, when both are known; else
         None: modelled from the flights), ``contact_height_se_m`` (a floor found in a video, m) and
         ``contact_height_found`` (whether it was found, not given),
-        ``source``, ``scale_rel_se`` (1), ``contact_guard_s`` (half a frame interval for a video, whose
-        frames are exposed around their time; else 0), ``nominal_drag_k_per_m`` and
+        ``source``, ``scale_rel_se`` (1), ``contact_guard_s`` (half a frame interval for a video or a table
+        tracked on one, whose frames are exposed around their time; else 0), ``nominal_drag_k_per_m`` and
         ``nominal_drag_relative_se`` (a smooth ball of the kind's C_d, size and mass, 1/m; a tennis or
         table-tennis ball's size or mass not given: as its rules allow; else 0 when either is unknown),
         ``noise_correlation``
-        (:data:`dropfit.video.quality.TRACKED_CENTRE_CORRELATION` for a video, else 0),
-        ``speed_dependent_error_m`` (a video: :data:`dropfit.video.quality.SPEED_DEPENDENT_CENTRE_ERROR_PX` at its
-        scale in m/px; else 0), and the ball
+        (:data:`dropfit.video.quality.TRACKED_CENTRE_CORRELATION` for a video or Photron clip dropfit tracked,
+        else 0), ``speed_dependent_error_m`` (the same: :data:`dropfit.video.quality.SPEED_DEPENDENT_CENTRE_ERROR_PX`
+        at its scale in m/px; else 0), and the ball
         kind's contact-time prior, exponent and longest contact time (:mod:`dropfit.balls`) with the radius.
     """
     settings = settings or Settings()
     gravity = settings.site_gravity()
     radius = attrs.get("ball_radius_m")
     floor = attrs.get("floor_m")
-    video = "video" in attrs
+    # frames are exposed around their time whoever tracked them; dropfit's own tracker (a video, a Photron clip)
+    # also has the centre errors measured for it
+    filmed = "video" in attrs or "import_frame_rate_hz" in attrs
+    video = "video" in attrs or attrs.get("import_format") == "mraw"
     try:
         kind = ball_kind(attrs.get("ball_type"))
     except InputError as error:  # a trajectory measured before ball types were checked
@@ -214,7 +217,7 @@ def analysis_options(attrs, settings=None, sample_interval_s=0.0):
         "scale_rel_se": float(attrs.get("scale_rel_se", 0.0)),
         # a video frame is exposed for up to one frame interval around its time: keep the flights half an
         # interval clear of the contacts, where a frame may show the ball flattened
-        "contact_guard_s": 0.5 * sample_interval_s if video else 0.0,
+        "contact_guard_s": 0.5 * sample_interval_s if filmed else 0.0,
         "nominal_drag_k_per_m": drag[0],
         "nominal_drag_relative_se": drag[1],
         "noise_correlation": TRACKED_CENTRE_CORRELATION if video else 0.0,

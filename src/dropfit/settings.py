@@ -416,9 +416,9 @@ class Settings:
     drag : {"auto", "off", "on"}
         Quadratic air drag k (1/m): fitted when the BIC prefers it, never, or always. When not
         fitted it is held at that of a smooth sphere of the ball's radius and mass (0 when either is
-        unknown). Default ``"auto"``; with it a video's flights' k is never used alone where the nominal one
+        unknown). Default ``"auto"``; with it a video's flights' k is not used alone where the nominal one
         is known: widened by what a centre error growing with speed makes of it, it is combined with the
-        nominal k and held there.
+        nominal k and held there, and what that error does to every quantity is carried as a systematic error.
     itf_drop_height_m : float
         ITF drop height in m (bottom of the ball above the floor). Default 2.54 (ITF Rules of
         Tennis, Appendix I).

@@ -37,6 +37,7 @@ from .video import limits as video_limits
 from .video.calibrate import (SCALE_PRECEDENCE, choose_scale, diameter_conflict, infer_capture_rate, rectify_rows,
                               ruler_scale)
 from .video.targets import aruco_plane, board_plane, local_scale_and_se, tilt_bias, to_plane, two_point_scale
+from .video.quality import SPEED_DEPENDENT_CENTRE_ERROR_PX
 from .errors import InputError, shown_path
 from .heightlog import check_floor, flight_acceleration, make_trajectory, nominal_drag_of, scale_from_gravity
 from .numerics import robust_sigma
@@ -462,8 +463,10 @@ def _record_scales(scales, extra):
 def _add_gravity_scale(scales, time, rows, seen_rows, gravity_m_s2, path, extra):
     """Add the scale from gravity (drag included) to ``scales``, or note in ``extra`` why there is none."""
     try:
+        # dropfit's tracked centres may err with the ball's speed (motion blur, the codec): as v² that bends the
+        # flights like another g
         signed, se, details = scale_from_gravity(time, rows, gravity_m_s2, str(path), *nominal_drag_of(extra),
-                                                 seen_rows)
+                                                 seen_rows, SPEED_DEPENDENT_CENTRE_ERROR_PX)
         extra.update(details)
     except InputError as error:
         extra["gravity_calibration_failed"] = str(error)

@@ -25,7 +25,7 @@ import pandas as pd
 from ..balls import ball_kind, contact_time_at
 from ..errors import InputError
 from ..numerics import robust_sigma
-from ..physics import STANDARD_GRAVITY_M_S2, flight_height, flight_velocity, time_from_apex
+from ..physics import STANDARD_GRAVITY_M_S2, flight_height, time_from_apex
 from .flights import (MIN_SAMPLES_PER_FLIGHT, FlightModel, bic, combine_with_prior, first_misfit_flight, first_spurious_impact,
                       fit_flights, parabola_start)
 from .impacts import (IMPACT_COLUMNS, ImpactQuantities, contact_resolvable, quantity_index, rest_time,
@@ -161,13 +161,14 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
         be fitted.
     speed_dependent_error_m : float
         Largest height error (m, at the fastest sample) that may change with the ball's speed, as a video's
-        ball centres do (motion blur, the lossy coding of a moving ball): taken as growing with v|v|, falling
-        high and rising low. The flights' curvature takes such an error for drag (phonesim's clips: k 20 %
-        high from H.264 at 120 frames/s, 55 % low from the blur of a lossless 30 frames/s clip, e 2–5 standard
-        errors off). With ``drag="auto"`` and a ``nominal_drag_k_per_m`` known, the flights' k is then never
-        used alone: its standard error is widened by the k such an error makes, it is combined with the
-        nominal k (inverse-variance weights), and k is held there, its standard error carried as a systematic
-        error (``drag="on"`` fits it freely).
+        ball centres do (motion blur, the lossy coding of a moving ball): taken as growing with v|v| (falling
+        high and rising low) and with v² (off the same way in both), a standard error for each. The flights'
+        curvature takes such an error for drag (phonesim's clips: k 20 % high from H.264 at 120 frames/s, 55 %
+        low from the blur of a lossless 30 frames/s clip, e 2–5 standard errors off). With ``drag="auto"`` and a
+        ``nominal_drag_k_per_m`` known, the flights' k is then not used alone: its standard error is widened by
+        the k such an error makes, it is combined with the nominal k (inverse-variance weights), and k is held
+        there, its standard error carried as a systematic error (``drag="on"`` fits it freely); what the two
+        shapes do to every quantity at that k is carried as two more.
 
     Returns
     -------
@@ -286,7 +287,7 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
     kinds = {"longest_s": longest[0], "exponent": longest[1], "radius_m": ball_radius_m}
     uncertainty = {**held_drag, "scale_rel_se": scale_rel_se, "contact_height_se_m": contact_height_se_m,
                    "noise_correlation": noise_correlation, "gravity_se_m_s2": float(gravity_se_m_s2),
-                   "gravity_scaled": bool(gravity_scaled), "extra_parts": extra_parts}
+                   "gravity_scaled": bool(gravity_scaled), "extra_parts": extra_parts, "speed_error_m": speed_error}
     data = {"release_time_s": release_time, "hand_samples": hand, "tracking_jump_samples": int(segmentation.outliers.size),
             "residual_outlier_samples": int(left_out),
             "first_flight_is_a_bounce": bool(skipped) or rising >= MIN_SAMPLES_PER_FLIGHT,
@@ -473,15 +474,12 @@ def fit_with_drag_choice(problem, bounds, drag, held_k, held_k_relative_se, sour
 
 def speed_error_drag_se(fit, error_m):
     """The change of a free fit's k (1/m) that a height error growing with the ball's speed makes: ``error_m``
-    (m) at the fastest sample, as v|v| (falling high, rising low), through the fit's linearised response;
-    0 without ``error_m``."""
+    (m) at the fastest sample, shaped as v|v| and as v² (:meth:`FlightModel.speed_patterns`), the two in quadrature,
+    through the fit's linearised response; 0 without ``error_m``."""
     if not error_m > 0:
         return 0.0
-    model = fit.model
-    _, t_apex, k = model.unpack(fit.result.x)
-    speed = flight_velocity(model.t, t_apex[model.flight], 0.0, k, model.g)
-    pattern = error_m * speed * np.abs(speed) / float(np.max(speed**2))
-    return abs(float(refit_response(fit.result, pattern)[-1]))
+    return float(np.hypot(*(refit_response(fit.result, pattern)[-1]
+                            for pattern in fit.model.speed_patterns(fit.result.x, error_m))))
 
 
 #: A sample whose flight-fit residual exceeds this many noise standard deviations is an outlier.

@@ -55,6 +55,15 @@ class FlightModel:
         model = flight_height(self.t, t_apex[self.flight], y_apex[self.flight], k, self.g)
         return np.nan_to_num(model - self.y, nan=1e6, neginf=-1e6, posinf=1e6)
 
+    def speed_patterns(self, theta, error_m):
+        """Height errors (m) at every sample that grow with the ball's speed v, ``error_m`` at the fastest: as
+        v|v| (falling high, rising low: what the flights' curvature takes for drag) and as v² (high, or low, in
+        both: a blurred or coded ball's centre reads off along its path)."""
+        _, t_apex, k = self.unpack(theta)
+        speed = flight_velocity(self.t, t_apex[self.flight], 0.0, k, self.g)
+        squared = float(np.max(speed**2))
+        return error_m * speed * np.abs(speed) / squared, error_m * speed**2 / squared
+
     @property
     def long(self):
         """Whether the fit uses the sparse Jacobian and iterative solver (:data:`LONG_LOG_SAMPLES`)."""
@@ -309,6 +318,9 @@ class SharedAcceleration:
         Per model: ``acceleration``, ``acceleration_se``, ``drag_k``, ``bic`` and ``weight``.
     note : str or None
         Why a model was left out (a fitted k that air cannot give).
+    largest_fall : float
+        The largest fall (L) of a fitted sample below its flight's apex: a height error growing as v² that
+        reaches δ there bends every flight like an acceleration off by the fraction δ / ``largest_fall``.
     """
 
     acceleration: float
@@ -318,6 +330,7 @@ class SharedAcceleration:
     drag_model: str
     models: dict = field(default_factory=dict)
     note: str | None = None
+    largest_fall: float = math.nan
 
 
 #: A fitted drag k within this factor of the ball's nominal one is air drag; beyond it, something else
@@ -411,5 +424,6 @@ def shared_acceleration_with_drag(pieces, nominal_k=0.0, nominal_k_se=0.0, max_k
                 + (f"{k / nominal_k:.2g} times the ball's" if nominal_k > 0 else "more than any ball's")
                 + ": not air drag; the scale's uncertainty includes half the difference that fit makes")
     chosen = max((name for name in models if "left out" not in name), key=lambda name: models[name]["weight"])
+    largest_fall = max(float(parabola_start(time, height, mean)[0] - np.min(height)) for time, height in pieces)
     return SharedAcceleration(float(mean), float(np.sqrt(variance)), models[chosen]["drag_k"],
-                              models[chosen]["drag_k_se"], chosen, models, note)
+                              models[chosen]["drag_k_se"], chosen, models, note, largest_fall)

@@ -105,7 +105,7 @@ def contact_height_sensitivity(quantities, theta, step_m=1e-6):
 
 def quantity_covariance(model, result, quantities, held_k_se=0.0, held_k_slopes=None, scale_rel_se=0.0,
                         contact_height_se_m=0.0, noise_correlation=0.0, gravity_se_m_s2=0.0, gravity_scaled=False,
-                        extra_parts=None):
+                        extra_parts=None, speed_error_m=0.0):
     """Covariance of the quantity vector of ``quantities`` at the fit ``result``, with its parts.
 
     Parameters
@@ -131,6 +131,10 @@ def quantity_covariance(model, result, quantities, held_k_se=0.0, held_k_slopes=
         with it and leaves times and ratios alone, instead of moving the fit.
     extra_parts : dict, optional
         More systematic parts, name → each quantity's signed share (same layout as the vector).
+    speed_error_m : float
+        Standard error (m) of a height error growing with the ball's speed, at the fastest sample
+        (:meth:`FlightModel.speed_patterns`): its two shapes move the quantities, with the flights refitted at
+        the fit's k, as two independent systematic parts (what the shapes do to a held k is in ``held_k_se``).
 
     Returns
     -------
@@ -183,6 +187,9 @@ def quantity_covariance(model, result, quantities, held_k_se=0.0, held_k_slopes=
                 result, quantities, jac, quantities, "contact_curvature", 1e-2 * curvature_se)
     elif contact_height_se_m > 0:
         parts["contact_height"] = contact_height_se_m * contact_height_sensitivity(quantities, theta)
+    if speed_error_m > 0:
+        for name, pattern in zip(("speed_error_odd", "speed_error_even"), model.speed_patterns(theta, speed_error_m)):
+            parts[name] = jac @ refit_response(result, pattern)
     # the length scale's error moves every quantity together: a rank-one term in their covariance
     scale_part = scale_rel_se * np.nan_to_num(scale_sensitivity(quantities, result)
                                               + slopes.get("scale", 0.0) * k_sensitivity) if scale_rel_se \

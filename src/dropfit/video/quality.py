@@ -35,7 +35,8 @@ CLEAN_QUALITIES = (QUALITY_OK, QUALITY_BLURRED)
 TRACKED_CENTRE_CORRELATION = 0.2
 
 #: Largest error of a tracked centre that changes with the ball's speed (px, at its fastest), which the flights'
-#: curvature takes for drag. Measured against phonesim's truth: the yellow ball at 120 fps read 0.3-0.45 px
+#: curvature takes for drag and which moves the apex heights at any k: a standard error that widens a held k's
+#: and enters every quantity as two systematic parts, its v|v| and v² shapes (dropfit.analysis.uncertainty). Measured against phonesim's truth: the yellow ball at 120 fps read 0.3-0.45 px
 #: higher falling than rising near the floor in H.264 (crf 18) and none of it encoded losslessly; the red ball,
 #: blurred over half a frame interval at 30 fps, 0.15-0.25 px high in its fast frames losslessly, 0.3-0.5 px in
 #: H.264. Taken as twice the largest of these: neither its shape nor how it grows at the fastest speeds, by the
