@@ -167,8 +167,8 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
         low from the blur of a lossless 30 frames/s clip, e 2–5 standard errors off). With ``drag="auto"`` and a
         ``nominal_drag_k_per_m`` known, the flights' k is then not used alone: its standard error is widened by
         the k such an error makes, it is combined with the nominal k (inverse-variance weights), and k is held
-        there, its standard error carried as a systematic error (``drag="on"`` fits it freely); what the two
-        shapes do to every quantity at that k is carried as two more.
+        there, its standard error carried as a systematic error (``drag="on"`` fits it freely). Whatever the
+        drag option, what the two shapes do to every quantity at the fit's k is carried as two more.
 
     Returns
     -------
@@ -287,7 +287,8 @@ def analyse_bounces(time_s, height_m, gravity_m_s2=STANDARD_GRAVITY_M_S2, drag="
     kinds = {"longest_s": longest[0], "exponent": longest[1], "radius_m": ball_radius_m}
     uncertainty = {**held_drag, "scale_rel_se": scale_rel_se, "contact_height_se_m": contact_height_se_m,
                    "noise_correlation": noise_correlation, "gravity_se_m_s2": float(gravity_se_m_s2),
-                   "gravity_scaled": bool(gravity_scaled), "extra_parts": extra_parts, "speed_error_m": speed_error}
+                   "gravity_scaled": bool(gravity_scaled), "extra_parts": extra_parts,
+                   "speed_error_m": float(speed_dependent_error_m)}
     data = {"release_time_s": release_time, "hand_samples": hand, "tracking_jump_samples": int(segmentation.outliers.size),
             "residual_outlier_samples": int(left_out),
             "first_flight_is_a_bounce": bool(skipped) or rising >= MIN_SAMPLES_PER_FLIGHT,
