@@ -358,3 +358,19 @@ def test_an_unknown_ball_type_of_an_old_trajectory_names_the_file():
     trajectory = make_trajectory(np.arange(10.0), np.ones(10), "old.csv", "test", {"ball_type": "golf"})
     with pytest.raises(InputError, match=r"^old\.csv: ball type 'golf' is not one dropfit knows"):
         pipeline.analysis_options(trajectory.attrs)
+
+
+def test_capture_interval_counts_captures_where_the_ball_moves():
+    """A 30 Hz capture in a 60 fps file: the repeats are found (and dropped) only while the ball moves, so the
+    held ball's frames keep the file's 1/60 s step and outnumber the moving ones; the captures are 1/30 s apart,
+    and the flights' limits count them. Without the ball's heights, the samples' median step."""
+    held = np.arange(0.0, 2.0, 1 / 60)  # a hand holds the ball still for 2 s: 120 frames
+    falling = 2.0 + np.arange(1, 30) / 30  # then 29 captures of a falling ball, each repeat dropped
+    time = np.concatenate([held, falling])
+    seen = np.concatenate([np.full(held.size, 1.0) + np.random.default_rng(0).normal(0.0, 2e-4, held.size),
+                           1.0 - 0.5 * 9.81 * (falling - 2.0) ** 2])
+    assert np.median(np.diff(time)) == pytest.approx(1 / 60)
+    assert pipeline.capture_interval(time, seen) == pytest.approx(1 / 30)
+    assert pipeline.capture_interval(time) == pytest.approx(1 / 60)
+    seen[held.size:] = np.nan  # the ball never seen moving: the file's step is all there is
+    assert pipeline.capture_interval(time, seen) == pytest.approx(1 / 60)

@@ -1,5 +1,7 @@
 """Where video analysis fails: each limit refuses a recording below it; above them e matches the truth."""
 
+import math
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -110,7 +112,11 @@ def test_flight_violation_names_the_impact_and_the_short_flight():
                      f"than the {span} a flight needs to be told from its impacts; film at 44 frames/s or more "
                      f"(slow motion)")
     sparse = video_limits.flight_violation(dict(row, impact=3, n_samples_after=clean - 5), span + 10, span + 10, 1 / 30)
-    assert sparse == f"impact 3: clean frames in the flight after it: {clean - 5} < {clean}"
+    # 2 clean frames at 30 frames/s: as many in each interval, 7 need 105 frames/s
+    assert sparse == (f"impact 3: clean frames in the flight after it: {clean - 5} < {clean} (film at 105 frames/s "
+                      f"or more, with a shorter exposure)")
+    none = video_limits.flight_violation(dict(row, n_samples_before=0), span + 10, span + 10, 1 / 30)
+    assert none.endswith("0 < 7 (film at a higher frame rate, with a shorter exposure)")
 
 
 def test_flight_spans_are_the_fall_of_the_drop_and_whole_bounces(drop):
@@ -163,7 +169,9 @@ def test_a_fall_filmed_in_too_few_clean_frames_leaves_e1_out_and_keeps_the_later
     first = kept.impacts.iloc[0]
     assert np.isnan(first["e"]) and np.isnan(first["v_in_m_s"]) and not first["in_fit"]
     before = int(first["n_samples_before"])
-    assert first["note"] == f"clean frames in the flight before it: {before} < {clean}: its e is not given"
+    assert first["note"] == (f"clean frames in the flight before it: {before} < {clean} (film at "
+                             f"{math.ceil(fps * clean / before)} frames/s or more, with a shorter exposure): its e is "
+                             f"not given")
     assert kept.e_covariance[0].tolist() == [0.0] * len(kept.impacts)
     later = kept.impacts.iloc[1:]
     assert len(later) >= 2 and later["in_fit"].all()

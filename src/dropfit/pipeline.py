@@ -281,7 +281,9 @@ def analyse_trajectory(trajectory, settings=None, source=None):
             raise
         raise InputError(video_limits.analysis_refusal(str(error), trajectory)) from None
     if "video" in attrs:  # a video's later bounces may be too briefly filmed to resolve
-        analysis = video_limits.select_resolved_impacts(analysis, attrs["video"], interval,
+        # the limits count captures: a 30 Hz clip in a 60 fps file films a flight in half as many frames
+        captures = capture_interval(time, trajectory["y_seen"].values if "y_seen" in trajectory else None)
+        analysis = video_limits.select_resolved_impacts(analysis, attrs["video"], captures,
                                                         attrs.get("frames_unclean"))
         if not analysis.impacts["in_fit"].any():  # every e unphysical: the tracking, not the ball, is the cause
             first = analysis.impacts[np.isfinite(analysis.impacts["e"])].iloc[0]  # (a resolved impact has an e)
@@ -295,6 +297,27 @@ def analyse_trajectory(trajectory, settings=None, source=None):
     summary = dict(analysis.summary, analysis_options=record, gravity=settings.site_gravity().record(),
                    ball_size_note=_ball_size_note(analysis.summary, attrs))
     return dataclasses.replace(analysis, summary=summary)
+
+
+#: A step between two frames longer than this (m) is the ball moving: far above a still ball's centre noise
+#: (0.1-0.5 mm on phone clips). On a clip without repeated frames any subset of its steps gives its interval.
+MOVING_STEP_M = 2e-3
+
+
+def capture_interval(time_s, seen_m=None):
+    """The time between captures (s): the median step of the samples, or, for a video, of the frames in which
+    the ball was seen to move (``seen_m``, its heights in m wherever seen). A clip whose recorder repeats every
+    capture (30 Hz in a 60 fps file) loses the repeats only where the ball moves, the one place they can be told
+    from new frames: its still frames keep the file's step."""
+    time_s = np.asarray(time_s, dtype=float)
+    if time_s.size < 2:
+        return 0.0
+    if seen_m is not None:
+        moves = np.abs(np.diff(np.asarray(seen_m, dtype=float)))  # NaN where either frame did not see the ball
+        moving = moves > MOVING_STEP_M
+        if np.count_nonzero(moving) >= 2:
+            return float(np.median(np.diff(time_s)[moving]))
+    return float(np.median(np.diff(time_s)))
 
 
 def _ball_size_note(summary, attrs):

@@ -279,8 +279,12 @@ def flight_violation(impacts_row, frames_before, frames_after, frame_interval_s)
                     f"{rate:.3g} frames/s, fewer than the {MIN_FRAME_INTERVALS_PER_FLIGHT} a flight needs to be told "
                     f"from its impacts; film at {needed:g} frames/s or more (slow motion)")
         if clean < MIN_CLEAN_FRAMES_PER_FLIGHT:
+            # as many frames clean in every frame interval: more frames a second give more clean ones
+            rate = 1.0 / frame_interval_s
+            faster = (f"film at {math.ceil(rate * MIN_CLEAN_FRAMES_PER_FLIGHT / clean):g} frames/s or more"
+                      if clean > 0 else "film at a higher frame rate")
             return (f"impact {int(impacts_row['impact'])}: clean frames in the flight {side} it: {int(clean)} "
-                    f"< {MIN_CLEAN_FRAMES_PER_FLIGHT}")
+                    f"< {MIN_CLEAN_FRAMES_PER_FLIGHT} ({faster}, with a shorter exposure)")
     return None
 
 
@@ -349,7 +353,7 @@ def select_resolved_impacts(analysis, source, frame_interval_s, unclean=None):
                for (_, row), before, after in zip(analysis.impacts.iterrows(), *spans)]
     first = next((i for i, reason in enumerate(reasons) if reason is None), None)
     if first is None:
-        why = f" ({unclean})" if unclean and "clean frames" in reasons[0] else ""
+        why = f"; the frames not clean: {unclean}; {TRACKER_HELP}" if unclean and "clean frames" in reasons[0] else ""
         raise InputError(f"{shown_path(source)}: not analysable: {reasons[0]}{why}")
     kept = next((i for i in range(first, len(reasons)) if reasons[i] is not None), len(reasons))
     n = len(reasons)
