@@ -140,3 +140,33 @@ def test_floor_edge_is_found_to_a_few_hundredths_of_a_pixel_with_a_ruler_standin
     errors = np.array([find_floor_row(_floor_scene(floor_row_px, wall, floor, seed), 38.0, 6.0) - floor_row_px
                        for seed in range(5)])
     assert abs(errors.mean()) < 0.02 and np.abs(errors).max() < FLOOR_ROW_SE_PX, errors
+
+
+def test_speed_dependent_centre_error_by_codec_and_blur():
+    """Closed forms of :func:`dropfit.video.quality.speed_dependent_centre_error_px`: a clip coded with motion
+    prediction gets the measured constant; an intra-frame clip MOTION_BLUR_CENTRE_ERROR_FRACTION of its blur at the
+    largest step, the blur taken as the whole step when it was not measured, a still ball's anisotropy removed."""
+    from dropfit.video.quality import (MOTION_BLUR_CENTRE_ERROR_FRACTION, SPEED_DEPENDENT_CENTRE_ERROR_PX,
+                                       speed_dependent_centre_error_px)
+
+    time = np.arange(40) / 30.0
+    rows = 0.5 * 3000.0 * time ** 2  # a fall at 3000 px/s²: steps of up to 1500 × 77 / 900 ≈ 128 px
+    largest = rows[-1] - rows[-2]
+    steps = np.r_[np.diff(rows), np.diff(rows)[-1]]
+    half_exposure = 0.5 * steps  # the blur of a frame exposed over half its interval
+    assert speed_dependent_centre_error_px("h264", rows, time, half_exposure) == SPEED_DEPENDENT_CENTRE_ERROR_PX
+    assert speed_dependent_centre_error_px(None, rows, time) == SPEED_DEPENDENT_CENTRE_ERROR_PX
+    assert speed_dependent_centre_error_px("mjpeg", rows, time) == pytest.approx(
+        MOTION_BLUR_CENTRE_ERROR_FRACTION * largest)
+    measured = speed_dependent_centre_error_px("mjpeg", rows, time, half_exposure)
+    assert measured == pytest.approx(MOTION_BLUR_CENTRE_ERROR_FRACTION * 0.5 * largest, rel=0.02)
+    # a 3 px anisotropy of every frame, still or not, adds in blur⁴ and is taken off again
+    anisotropic = (half_exposure ** 4 + 3.0 ** 4) ** 0.25
+    assert speed_dependent_centre_error_px("raw", rows, time, anisotropic) == pytest.approx(measured, rel=0.02)
+    # an instantaneous exposure: the anisotropy alone, no error
+    assert speed_dependent_centre_error_px("mjpeg", rows, time, np.full(40, 3.0)) == pytest.approx(0.0, abs=1e-9)
+    # lost frames (NaN) are skipped, a step over a gap scaled to one interval
+    gappy = rows.copy()
+    gappy[::3] = np.nan
+    assert speed_dependent_centre_error_px("mjpeg", gappy, time) == pytest.approx(
+        MOTION_BLUR_CENTRE_ERROR_FRACTION * largest, rel=0.05)

@@ -37,7 +37,7 @@ from .video import limits as video_limits
 from .video.calibrate import (SCALE_PRECEDENCE, choose_scale, diameter_conflict, infer_capture_rate, rectify_rows,
                               ruler_scale)
 from .video.targets import aruco_plane, board_plane, local_scale_and_se, tilt_bias, to_plane, two_point_scale
-from .video.quality import SPEED_DEPENDENT_CENTRE_ERROR_PX
+from .video.quality import speed_dependent_centre_error_px
 from .errors import InputError, shown_path
 from .heightlog import check_floor, flight_acceleration, make_trajectory, nominal_drag_of, scale_from_gravity
 from .numerics import robust_sigma
@@ -198,8 +198,10 @@ def trajectory_from_video(path, ball_radius_m=None, scale_m_per_px=None, capture
         target's plane. The attributes hold every scale found (``scale_<source>_m_per_px`` and
         ``_se_m_per_px``), the chosen
         ``scale_source``, ``scale_m_per_px`` and its relative standard error ``scale_rel_se``, the
-        others' ``scale_disagreement_<source>`` (s / s_chosen − 1), and the time base
-        (``capture_fps``, ``capture_fps_source``, ``capture_rate_note``).
+        others' ``scale_disagreement_<source>`` (s / s_chosen − 1), the time base
+        (``capture_fps``, ``capture_fps_source``, ``capture_rate_note``), the ``codec`` and the centres'
+        speed-dependent error ``speed_error_px`` (px at the fastest,
+        :func:`dropfit.video.quality.speed_dependent_centre_error_px`).
     """
     from .video.track import track_video_and_background, usable_rows
 
@@ -237,6 +239,9 @@ def trajectory_from_video(path, ball_radius_m=None, scale_m_per_px=None, capture
         extra["tilt_scale_difference"], _, extra["tilt_note"] = tilt_bias(radius_px, image_rows[usable])
     seen_rows = _seen_rows(table, plane, extra)
     time = _capture_time(table, rows, seen_rows, scales, capture_fps, gravity_m_s2, extra)
+    extra.update(codec=table.attrs.get("codec") or "unknown",
+                 speed_error_px=speed_dependent_centre_error_px(table.attrs.get("codec"), rows, time,
+                                                                table["blur_px"].to_numpy()))
     if extra["capture_fps_source"] == _RAW_RATE_SOURCE:
         extra["gravity_calibration_failed"] = "gravity set the capture rate, so it gives no independent scale"
     else:
@@ -466,7 +471,7 @@ def _add_gravity_scale(scales, time, rows, seen_rows, gravity_m_s2, path, extra)
         # dropfit's tracked centres may err with the ball's speed (motion blur, the codec): as v² that bends the
         # flights like another g
         signed, se, details = scale_from_gravity(time, rows, gravity_m_s2, str(path), *nominal_drag_of(extra),
-                                                 seen_rows, SPEED_DEPENDENT_CENTRE_ERROR_PX)
+                                                 seen_rows, extra["speed_error_px"])
         extra.update(details)
     except InputError as error:
         extra["gravity_calibration_failed"] = str(error)

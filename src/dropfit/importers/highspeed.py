@@ -122,6 +122,7 @@ def track_highspeed(path):
 
 def read_highspeed(path, options):
     """A Photron recording → :class:`ImportedTrack` of the tracked ball (image px, y down)."""
+    from ..video.quality import speed_dependent_centre_error_px
     from ..video.track import usable_rows
 
     table, fps = track_highspeed(path)
@@ -134,4 +135,6 @@ def read_highspeed(path, options):
     mapping = describe(path, [f"Photron clip of {len(table)} frames at {fps:g} frames/s (from its metadata)",
                               f"ball tracked in {np.count_nonzero(usable)} [px, y down]"])
     return ImportedTrack(table["time_s"].to_numpy(), y, "px", "mraw", mapping, x, fps,
-                         {"ball_radius_px": float(np.nanmedian(table["radius_px"].to_numpy()[usable]))})
+                         {"ball_radius_px": float(np.nanmedian(table["radius_px"].to_numpy()[usable])),
+                          "speed_error_px": speed_dependent_centre_error_px("raw", y, table["time_s"].to_numpy(),
+                                                                            table["blur_px"].to_numpy())})

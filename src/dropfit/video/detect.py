@@ -178,6 +178,9 @@ class BallMeasurement:
         Standard error of the centre of a circle fit (partial and occluded balls), px; NaN for ``ok``.
     fit_rms_px : float
         RMS distance of the outline points from the fitted circle, px; NaN for ``ok``.
+    blur_px : float
+        Length of the ball's motion blur, px, from its coverage's second moments (a disc of radius r swept a length
+        L has variance r²/4 + L²/12 along the sweep and r²/4 across it); NaN but for ``ok`` and ``blurred``.
     """
 
     x_px: float
@@ -187,6 +190,7 @@ class BallMeasurement:
     truncated: bool = False
     centre_se_px: float = math.nan
     fit_rms_px: float = math.nan
+    blur_px: float = math.nan
 
 
 
@@ -652,9 +656,10 @@ def measure_ball(grey, background, threshold_grey, centre_guess, radius_ref_px=N
         return None
     x = float(weight.sum(axis=0) @ np.arange(width, dtype=np.float32)) / area + left_px
     y = float(weight.sum(axis=1) @ np.arange(height, dtype=np.float32)) / area + top_px
+    blur = motion_blur_px(weight, (x - left_px, y - top_px), area)
     if streak:
         # no pixel is covered for the whole exposure, so the sum of coverage is not the ball's area
-        return BallMeasurement(x, y, radius_ref_px, QUALITY_BLURRED, truncated)
+        return BallMeasurement(x, y, radius_ref_px, QUALITY_BLURRED, truncated, blur_px=blur)
     radius = math.sqrt(area / math.pi)
     quality = QUALITY_OK
     if radius_ref_px:
@@ -662,7 +667,21 @@ def measure_ball(grey, background, threshold_grey, centre_guess, radius_ref_px=N
                       min(RADIUS_SPREAD_SIGMAS * radius_spread_px, MAX_RADIUS_DEFICIT_FRACTION * radius_ref_px))
         if radius < radius_ref_px - deficit:
             quality = QUALITY_OCCLUDED
-    return BallMeasurement(x, y, radius, quality, truncated)
+    return BallMeasurement(x, y, radius, quality, truncated, blur_px=blur if quality == QUALITY_OK else math.nan)
+
+
+def motion_blur_px(weight, centroid_px, area):
+    """Length of a ball's motion blur, px, from its coverage ``weight`` (rows × columns) about its ``centroid_px``
+    (x, y in the window, px); ``area`` is the sum of ``weight`` (px²). A disc swept a length L has variance L²/12
+    more along the sweep than across it.
+    """
+    columns = np.arange(weight.shape[1]) - centroid_px[0]
+    rows = np.arange(weight.shape[0]) - centroid_px[1]
+    variance_x = float(weight.sum(axis=0) @ (columns * columns)) / area
+    variance_y = float(weight.sum(axis=1) @ (rows * rows)) / area
+    covariance = float(rows @ weight @ columns) / area
+    spread = math.hypot((variance_x - variance_y) / 2, covariance)  # px², half the axes' difference
+    return math.sqrt(24.0 * spread)
 
 
 def _centre_colour(frame, blob):

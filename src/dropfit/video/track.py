@@ -60,7 +60,7 @@ from .quality import (CLEAN_QUALITIES, MAX_PARTIAL_FIT_RMS_PX, QUALITY_BLURRED, 
                       QUALITY_LOST, QUALITY_OCCLUDED, QUALITY_OK, QUALITY_PARTIAL, QUALITY_SHADED,
                       TRACKED_CENTRE_CORRELATION, usable_rows)
 
-COLUMNS = ["frame", "time_s", "x_px", "y_px", "radius_px", "quality", "centre_se_px", "fit_rms_px"]
+COLUMNS = ["frame", "time_s", "x_px", "y_px", "radius_px", "quality", "centre_se_px", "fit_rms_px", "blur_px"]
 
 #: Mean absolute grey-level difference to the previous frame at or below which a frame is a duplicate.
 DUPLICATE_TOLERANCE_GREY = 0.5
@@ -403,7 +403,7 @@ class BallTracker:
         duplicate = self._is_duplicate(frame, predicted)
         self._previous = frame
         if duplicate:
-            return math.nan, math.nan, math.nan, QUALITY_DUPLICATE, math.nan, math.nan
+            return math.nan, math.nan, math.nan, QUALITY_DUPLICATE, math.nan, math.nan, math.nan
         if self.contrast.in_colour:
             self._gain = frame_gain(frame, scene_colour(self.background))
 
@@ -435,7 +435,7 @@ class BallTracker:
                     self._history = []
                 result = searched
         if result is None:
-            return math.nan, math.nan, math.nan, QUALITY_LOST, math.nan, math.nan
+            return math.nan, math.nan, math.nan, QUALITY_LOST, math.nan, math.nan, math.nan
         if (result.quality == QUALITY_OK and self._shaded_fits
                 and result.radius_px < SHADED_SIZE_FRACTION * float(np.median(self._shaded_fits))):
             # smaller than the circle of its own lit side: part of the ball (a light ball over a light wall
@@ -459,7 +459,8 @@ class BallTracker:
             self._radius_ref = float(fast_median(np.array(radii)) if self._still_radii else min(radii))
             enough = len(radii) >= MIN_RADII_FOR_SPREAD
             self._radius_spread = robust_sigma(radii, centre=self._radius_ref) if enough else 0.0
-        return result.x_px, result.y_px, result.radius_px, result.quality, result.centre_se_px, result.fit_rms_px
+        return (result.x_px, result.y_px, result.radius_px, result.quality, result.centre_se_px, result.fit_rms_px,
+                result.blur_px)
 
 
 def _found_or_raise(table, source):
@@ -755,16 +756,16 @@ def refitted_repeats(x_px, y_px, quality):
 
 
 def _table(rows, times_s):
-    x, y, r, quality, centre_se, fit_rms = zip(*rows) if rows else ((),) * 6
-    x, y, r, centre_se, fit_rms = (np.asarray(column, float) for column in (x, y, r, centre_se, fit_rms))
+    x, y, r, quality, centre_se, fit_rms, blur = zip(*rows) if rows else ((),) * 7
+    x, y, r, centre_se, fit_rms, blur = (np.asarray(column, float) for column in (x, y, r, centre_se, fit_rms, blur))
     quality = np.asarray(quality, object)
     repeats = refitted_repeats(x, y, quality)
     quality[repeats] = QUALITY_DUPLICATE
-    for column in (x, y, r, centre_se, fit_rms):
+    for column in (x, y, r, centre_se, fit_rms, blur):
         column[repeats] = np.nan
     return pd.DataFrame({"frame": np.arange(len(rows)), "time_s": np.asarray(times_s, float), "x_px": x, "y_px": y,
-                         "radius_px": r, "quality": list(quality), "centre_se_px": centre_se, "fit_rms_px": fit_rms},
-                        columns=COLUMNS)
+                         "radius_px": r, "quality": list(quality), "centre_se_px": centre_se, "fit_rms_px": fit_rms,
+                         "blur_px": blur}, columns=COLUMNS)
 
 
 def track_frames(frames, times_s, expected_radius_px=None, *, background=None, source="frames", hints=None):
@@ -791,7 +792,7 @@ def track_frames(frames, times_s, expected_radius_px=None, *, background=None, s
     -------
     pandas.DataFrame
         One row per frame: ``frame``, ``time_s`` (s), ``x_px``, ``y_px``, ``radius_px`` (px),
-        ``quality``, ``centre_se_px`` and ``fit_rms_px`` (px; see the module documentation);
+        ``quality``, ``centre_se_px``, ``fit_rms_px`` and ``blur_px`` (px; see the module documentation);
         ``attrs`` holds ``source``, ``noise_grey``, ``contrast`` (the channel tracked in) and ``in_colour``
         (whether that channel is a colour one).
 
