@@ -532,3 +532,31 @@ def test_heights_whose_errors_grow_with_speed_do_not_decide_the_drag(drag_coeffi
         z_held.extend((held.impacts["e"].to_numpy()[:3] - e_true) / held.impacts["e_se"].to_numpy()[:3])
     assert np.mean(np.abs(z_free) > 1.96) >= 0.5, z_free  # the cause is real: the curvature's k misleads
     assert np.all(np.abs(z_held) < 1.96), z_held
+
+
+def test_a_failed_refit_at_the_held_drag_keeps_the_free_fit_and_says_so(monkeypatch):
+    """When the flights cannot be refitted with k held at the value combined from the nominal k and the flights'
+    (here made to fail), the free fit is kept: its k and its e, a note says the refit failed and that e is less
+    certain than stated (the speed-dependent error's widening of k is not in it)."""
+    import dropfit.analysis.bounces as bounces
+    from dropfit.physics import drag_parameter
+    from dropfit.synth import sample_height_log, simulate_drop
+
+    radius, mass = 0.0335, 0.057  # m, kg
+    truth = simulate_drop(1.2, radius, {"kind": "constant", "e0": 0.76}, mass_kg=mass, drag_coefficient=0.55)
+    log = sample_height_log(truth, np.random.default_rng(0), 120.0, noise_m=0.0005)
+    options = dict(nominal_drag_k_per_m=drag_parameter(0.55, radius, mass), nominal_drag_relative_se=0.11,
+                   drag="on")
+    free = analyse_bounces(log["time_s"].to_numpy(), log["y_m"].to_numpy(), **options)
+    real_refine = bounces.refine
+
+    def refine_unless_held(problem, bounds, with_drag, theta0, fixed_k=0.0):
+        return None if not with_drag and fixed_k > 0 else real_refine(problem, bounds, with_drag, theta0, fixed_k)
+
+    monkeypatch.setattr(bounces, "refine", refine_unless_held)
+    options["drag"] = "auto"
+    kept = analyse_bounces(log["time_s"].to_numpy(), log["y_m"].to_numpy(), speed_dependent_error_m=0.0025, **options)
+    assert "failed" in kept.summary["drag_why"] and "less certain" in kept.summary["drag_why"]
+    np.testing.assert_allclose(kept.impacts["e"], free.impacts["e"], rtol=1e-9)
+    e_true = truth.impacts["e"].to_numpy()[:len(kept.impacts)]
+    assert np.all(np.abs(kept.impacts["e"] - e_true) < 3 * kept.impacts["e_se"])
