@@ -24,7 +24,7 @@ from dropfit.physics import (NORMAL_GRAVITY_SE_M_S2, STANDARD_GRAVITY_M_S2, UNKN
 from dropfit.result import REPORT_SECTIONS
 from dropfit.settings import (OPTIONS, Ball, OptionError, Settings, settings_from_config, split_options,
                               stage_arguments, workflow_values)
-from dropfit.video.quality import TRACKED_CENTRE_CORRELATION
+from dropfit.video.quality import SPEED_DEPENDENT_CENTRE_ERROR_PX, TRACKED_CENTRE_CORRELATION
 
 from helpers import (DROP_BALL, DROP_FLOOR_M, RECORDING_FILES, assert_nothing_written, assert_one_line_error,
                      fit_numbers, option_arguments, write_bad_log, write_drop_log)
@@ -234,6 +234,10 @@ def test_analysis_options_are_made_in_one_place():
     assert photron["contact_guard_s"] == pytest.approx(1e-4)
     assert photron["noise_correlation"] == TRACKED_CENTRE_CORRELATION
     assert photron["speed_dependent_error_m"] == pytest.approx(1e-4 * 0.3)  # the tracker's, at the scale
+    # a video trajectory written before the error was recorded per clip: the largest, a predicted codec's
+    older = pipeline.analysis_options({"source": "clip.mp4", "video": "clip.mp4", "scale_m_per_px": 1e-3}, Settings(),
+                                      sample_interval_s=1 / 30)
+    assert older["speed_dependent_error_m"] == pytest.approx(1e-3 * SPEED_DEPENDENT_CENTRE_ERROR_PX)
     # every option is a parameter of analyse_bounces
     assert set(options) <= set(inspect.signature(analyse_bounces).parameters)
 

@@ -34,7 +34,7 @@ from .fitrecord import analysis_summary, fit_summary, plain
 from .heightlog import nominal_drag_of, regulation_note, trajectory_from_log
 from .result import RecordingResult
 from .settings import Ball, Settings, split_options
-from .video.quality import TRACKED_CENTRE_CORRELATION
+from .video.quality import SPEED_DEPENDENT_CENTRE_ERROR_PX, TRACKED_CENTRE_CORRELATION
 from .videolog import VIDEO_SUFFIXES, is_video, scale_targets_of, trajectory_from_video
 
 #: Settings that apply to measuring a recording, not to an already measured trajectory.
@@ -189,7 +189,8 @@ def analysis_options(attrs, settings=None, sample_interval_s=0.0):
         ``noise_correlation``
         (:data:`dropfit.video.quality.TRACKED_CENTRE_CORRELATION` for a video or Photron clip dropfit tracked,
         else 0), ``speed_dependent_error_m`` (the same: the tracker's ``speed_error_px``,
-        :func:`dropfit.video.quality.speed_dependent_centre_error_px`, at its scale in m/px; else 0), and the ball
+        :func:`dropfit.video.quality.speed_dependent_centre_error_px`, or where it is not recorded
+        :data:`dropfit.video.quality.SPEED_DEPENDENT_CENTRE_ERROR_PX`, at its scale in m/px; else 0), and the ball
         kind's contact-time prior, exponent and longest contact time (:mod:`dropfit.balls`) with the radius.
     """
     settings = settings or Settings()
@@ -221,8 +222,9 @@ def analysis_options(attrs, settings=None, sample_interval_s=0.0):
         "nominal_drag_k_per_m": drag[0],
         "nominal_drag_relative_se": drag[1],
         "noise_correlation": TRACKED_CENTRE_CORRELATION if video else 0.0,
-        "speed_dependent_error_m": float(attrs.get("speed_error_px", 0.0)) * abs(attrs.get("scale_m_per_px") or 0.0)
-        if video else 0.0,
+        # (a trajectory tracked before the error was measured per clip: the largest, that of a predicted codec)
+        "speed_dependent_error_m": float(attrs.get("speed_error_px", SPEED_DEPENDENT_CENTRE_ERROR_PX))
+        * abs(attrs.get("scale_m_per_px") or 0.0) if video else 0.0,
         "gravity_se_m_s2": gravity.se_m_s2,
         "gravity_scaled": gravity_scaled(attrs),
         "contact_time_prior_s": (kind.contact_time_s, kind.contact_time_se_s),
