@@ -334,11 +334,13 @@ class ClipConfig:
         Clip length (s); None: until 0.6 s after the ball rests or 0.8 s
         after the catch.
     codec : str
-        Encoder ("libx264", "mpeg4", "mjpeg").
+        Encoder ("libx264", "libx265" for HEVC, "mpeg4", "mjpeg").
     crf : int
-        Constant rate factor for libx264 (quality; 0 is lossless).
+        Constant rate factor for libx264 and libx265 (quality; 0 is lossless).
     encoder_preset : str
-        libx264 speed preset.
+        libx264 / libx265 speed preset.
+    bit_depth : int
+        Bits per sample: 8, or 10 with libx265 (a phone's HDR video).
     ball, scene, hand, camera, timing, sensor
         See :class:`BallStyle`, :class:`SceneStyle`, :class:`HandStyle`,
         :class:`CameraSetup`, :class:`FrameTiming`, :class:`SensorEffects`.
@@ -356,6 +358,7 @@ class ClipConfig:
     codec: str = "libx264"
     crf: int = 18
     encoder_preset: str = "veryfast"
+    bit_depth: int = 8
     ball: BallStyle = field(default_factory=BallStyle)
     scene: SceneStyle = field(default_factory=SceneStyle)
     hand: HandStyle = field(default_factory=HandStyle)

@@ -1,4 +1,4 @@
-"""Writing frames with a real encoder through PyAV (H.264 in MP4/MOV/MKV, MPEG-4 or MJPEG in AVI)."""
+"""Writing frames with a real encoder through PyAV (H.264 or HEVC in MP4/MOV/MKV, MPEG-4 or MJPEG in AVI)."""
 
 from __future__ import annotations
 
@@ -35,25 +35,30 @@ class ClipWriter:
     time_base : Fraction
         Seconds per timestamp tick.
     codec : str
-        Encoder name ("libx264", "mpeg4", "mjpeg").
+        Encoder name ("libx264", "libx265", "mpeg4", "mjpeg").
     crf : int
-        libx264 constant rate factor.
+        libx264 / libx265 constant rate factor.
     encoder_preset : str
-        libx264 speed preset.
+        libx264 / libx265 speed preset.
+    bit_depth : int
+        Bits per sample, 8 or 10 (libx265 only: a phone's HDR video is 10-bit HEVC).
     """
 
     def __init__(self, path, width_px: int, height_px: int, rotation_deg: int, container_fps: Fraction,
-                 time_base: Fraction, codec: str = "libx264", crf: int = 18, encoder_preset: str = "veryfast"):
+                 time_base: Fraction, codec: str = "libx264", crf: int = 18, encoder_preset: str = "veryfast",
+                 bit_depth: int = 8):
         if rotation_deg % 90:
             raise ValueError("rotation_deg must be a multiple of 90")
         if rotation_deg % 360 and constant_rate_container(path):
             raise ValueError(f"{Path(path).suffix} cannot store a display rotation; use .mp4 or .mov")
+        if bit_depth not in (8, 10) or bit_depth == 10 and codec != "libx265":
+            raise ValueError(f"bit_depth {bit_depth} with {codec}: 10 bits need libx265, else 8")
         self.rotation_deg = rotation_deg % 360
         self.container = av.open(str(path), mode="w")
         self.stream = self.container.add_stream(codec, rate=container_fps)
         stored_w, stored_h = (height_px, width_px) if self.rotation_deg in (90, 270) else (width_px, height_px)
         self.stream.width, self.stream.height = stored_w, stored_h
-        self.stream.pix_fmt = "yuvj420p" if codec == "mjpeg" else "yuv420p"
+        self.stream.pix_fmt = "yuvj420p" if codec == "mjpeg" else "yuv420p10le" if bit_depth == 10 else "yuv420p"
         self.stream.codec_context.time_base = time_base
         self.time_base = time_base
         if codec == "libx264":
@@ -61,6 +66,12 @@ class ClipWriter:
             # frames encoded to files that differed with MALLOC_PERTURB_); without it every encode of a
             # seed gives the same file.  Phone hardware encoders have no macroblock tree either.
             self.stream.options = {"crf": str(crf), "preset": encoder_preset, "x264-params": "mbtree=0"}
+        elif codec == "libx265":
+            # one frame thread and no cu-tree, for the same file from every encode of a seed; tagged hvc1 as
+            # phones tag it (FFmpeg's default hev1 is what QuickTime will not play)
+            self.stream.options = {"crf": str(crf), "preset": encoder_preset,
+                                   "x265-params": "log-level=error:frame-threads=1:cutree=0"}
+            self.stream.codec_context.codec_tag = "hvc1"
         else:
             # about 0.3 bit per pixel: visually clean, like a camera's AVI
             self.stream.codec_context.bit_rate = int(0.3 * stored_w * stored_h * float(container_fps))

@@ -382,7 +382,8 @@ def render_clip(config: ClipConfig, path: str | Path, seed: int = 0) -> Truth:
     rows = []
     width, height = config.frame_size_px
     with ClipWriter(path, width, height, config.rotation_deg, renderer.schedule.container_fps,
-                    renderer.schedule.time_base, config.codec, config.crf, config.encoder_preset) as writer:
+                    renderer.schedule.time_base, config.codec, config.crf, config.encoder_preset,
+                    config.bit_depth) as writer:
         for row, picture in renderer.frames():
             writer.write(picture, row["pts"])
             rows.append(row)

@@ -448,13 +448,14 @@ def depth_motion_fit(time_s, x, y):
             "rms": float(np.sqrt(np.mean(residual ** 2)))}
 
 
-def phone_clip(preset, directory, seed=0, downscale=0.5, **changes):
+def phone_clip(preset, directory, seed=0, downscale=0.5, suffix=None, **changes):
     """Render a phonesim preset (with ``changes`` to its :class:`phonesim.ClipConfig`) into ``directory``.
 
     Returns
     -------
     (pathlib.Path, dict)
-        The clip, in the container the preset was described with, and its truth (``<stem>.truth.json``).
+        The clip, in the container ``suffix`` names (by default the one the preset was described with), and its
+        truth (``<stem>.truth.json``).
     """
     import dataclasses
     import json
@@ -462,7 +463,7 @@ def phone_clip(preset, directory, seed=0, downscale=0.5, **changes):
     import phonesim
 
     config = dataclasses.replace(phonesim.PRESETS[preset].scaled(downscale), **changes)
-    path = pathlib.Path(directory) / f"{preset}{phonesim.PRESET_SUFFIX[preset]}"
+    path = pathlib.Path(directory) / f"{preset}{suffix or phonesim.PRESET_SUFFIX[preset]}"
     phonesim.render_clip(config, path, seed=seed)
     return path, json.loads(path.with_suffix(".truth.json").read_text())
 #: The small clip of :func:`render_drop_clip`: image scale (px/m), floor row (px) and the ball's radius (m).

@@ -560,3 +560,38 @@ def test_a_failed_refit_at_the_held_drag_keeps_the_free_fit_and_says_so(monkeypa
     np.testing.assert_allclose(kept.impacts["e"], free.impacts["e"], rtol=1e-9)
     e_true = truth.impacts["e"].to_numpy()[:len(kept.impacts)]
     assert np.all(np.abs(kept.impacts["e"] - e_true) < 3 * kept.impacts["e_se"])
+
+
+def _bouncing_rows(drop_m=1.2, e=0.77, fps=120.0, px_per_m=225.0, floor_row_px=590.0, held_s=1.1, duration_s=5.0):
+    """Image rows (px, down) of a ball held still, then dropped onto a floor and bouncing with a constant ``e``,
+    without drag (closed form): times (s) and rows."""
+    g = 9.81
+    time = np.arange(0.0, duration_s, 1.0 / fps)
+    height = np.full(time.size, drop_m)
+    start, top, speed = held_s, drop_m, 0.0  # each flight: its start time, height and upward speed
+    while start < duration_s and (top > 1e-3 or speed > 1e-2):
+        # the flight lands when top + speed τ − g τ²/2 = 0
+        landing = (speed + np.sqrt(speed**2 + 2 * g * top)) / g
+        inside = (time >= start) & (time < start + landing)
+        tau = time[inside] - start
+        height[inside] = top + speed * tau - 0.5 * g * tau**2
+        start, top, speed = start + landing, 0.0, e * (g * landing - speed)
+    height[time >= start] = 0.0
+    return time, floor_row_px - px_per_m * height
+
+
+def test_the_image_rows_sign_is_not_turned_by_a_lone_position_seen_in_a_gap():
+    """A phone clip's tracker lost a held ball for a second but for one frame in which it took the hand, 225 px
+    below the ball, for it, and two more in which it took the hand above it: the lone position's jump has no
+    neighbour to cancel it, and it outweighed the seven impacts (the rows were read as heights pointing up, and the
+    clip refused: 'falls with 842 m/s², not g'). Differences across a gap are left out."""
+    from dropfit.analysis import vertical_sign
+
+    time, rows = _bouncing_rows()
+    assert vertical_sign(time, rows) == -1.0
+    seen = rows.copy()
+    seen[:133] = np.nan  # the ball lost while held and at the release
+    seen[117] = rows[117] + 225.0  # the hand below the held ball
+    seen[131:133] = rows[131:133] - 35.0  # ... and above it
+    assert vertical_sign(time, seen) == -1.0
+    assert vertical_sign(time, -seen) == 1.0
