@@ -584,7 +584,7 @@ def test_the_image_rows_sign_is_not_turned_by_a_lone_position_seen_in_a_gap():
     """A phone clip's tracker lost a held ball for a second but for one frame in which it took the hand, 225 px
     below the ball, for it, and two more in which it took the hand above it: the lone position's jump has no
     neighbour to cancel it, and it outweighed the seven impacts (the rows were read as heights pointing up, and the
-    clip refused: 'falls with 842 m/s², not g'). Differences across a gap are left out."""
+    clip refused: 'falls with 842 m/s², not g'). The flights' median curvature decides, which jumps do not move."""
     from dropfit.analysis import vertical_sign
 
     time, rows = _bouncing_rows()

@@ -256,9 +256,13 @@ def test_a_ruler_read_in_the_wrong_marks_is_refused_by_the_balls_size(tmp_path):
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("drag_factor", [1.1, 0.9])
-def test_a_ball_whose_drag_is_not_its_kinds_is_covered(tmp_path, drag_factor):
-    """The small yellow ball at 120 frames/s (seed 3) with 1.1 or 0.9 times the C_d its kind is analysed with. Its
+@pytest.mark.parametrize("drag_factor, seed", [
+    (1.1, 3), (0.9, 3),
+    # its hand was followed for a while, jumping hundreds of px: the jumps' sum turned the image rows' sign (the
+    # clip was refused, "falls with 736 m/s², not g") where the flights' median curvature gives it
+    (1.1, 0)])
+def test_a_ball_whose_drag_is_not_its_kinds_is_covered(tmp_path, drag_factor, seed):
+    """The small yellow ball at 120 frames/s with 1.1 or 0.9 times the C_d its kind is analysed with. Its
     H.264 centres read up to 0.45 px higher falling than rising near the floor (none of it in the same clip encoded
     losslessly), and the free drag fit took that for 20 % more drag: e came out 2.0-3.4 se high. A video's flights'
     k is now widened by what a centre error of 1 px growing with speed makes of it and combined with the kind's
@@ -270,7 +274,7 @@ def test_a_ball_whose_drag_is_not_its_kinds_is_covered(tmp_path, drag_factor):
 
     ball = phonesim.PRESETS["yellow_flicker_portrait_120"].ball
     ball = dataclasses.replace(ball, drag_coefficient=drag_factor * refsim.preset(ball.model).drag_coefficient)
-    path, truth = phone_clip("yellow_flicker_portrait_120", tmp_path, seed=3, downscale=0.5, ball=ball)
+    path, truth = phone_clip("yellow_flicker_portrait_120", tmp_path, seed=seed, downscale=0.5, ball=ball)
     physics = truth["physics"]
     result = dropfit.analyse_recording(path, ball_radius_m=physics["radius_m"], ball_mass_kg=physics["mass_kg"],
                                        ball_type=physics["ball_model"], ruler_tick_m=0.01)

@@ -430,38 +430,43 @@ def segment(time_s, height, source="trajectory", acceleration=None, seen_height=
                         outliers=outliers, notes=notes, clean=clean, clean_noise=clean_noise)
 
 
-#: :func:`vertical_sign` leaves out the second differences that span more than this many times their median time.
-GAP_SPAN_FACTOR = 1.5
+#: :func:`vertical_sign` takes the sign of the flights' median curvature where it is at least this many of its
+#: standard errors from 0.
+FLIGHT_CURVATURE_SIGMAS = 3.0
+#: Standard error of a median over that of a mean, for Gaussian values: √(π/2).
+MEDIAN_SE_FACTOR = 1.2533
 
 
 def vertical_sign(time_s, height):
     """+1 if the height axis points up, −1 if it points down (image rows).
 
-    Every second difference (over about 10 ms) that is not free flight lies above the flights' own (g times
-    the step squared, their median) on an axis pointing up, and below it on one pointing down: an impact
-    (the velocity reverses upwards) far above, a ball at rest (no curvature) above by g times the step
-    squared. The flights' curvature is taken from the samples that move, so that a long rest does not set
-    it; a tracking jump makes large differences of both signs that cancel. Differences that span a gap
-    (more than ``GAP_SPAN_FACTOR`` times their median time) are left out: a lone position seen in a gap (a
-    hand taken for the ball while it held it) has no neighbours to cancel its jump, and one outweighed
-    seven impacts of a phone clip. Without any large one (no impact in view, no rest), a dropped ball
-    starts above its median position.
+    The second differences (over about 10 ms) of the samples that move are mostly the flights' own: g times
+    the step squared, downwards. Their median's sign decides where it is at least
+    ``FLIGHT_CURVATURE_SIGMAS`` standard errors from 0: tracking jumps (a hand taken for the ball while it
+    held it, lone positions seen in a gap) move a few differences by hundreds of px and do not move a median
+    (their sum outweighed seven impacts of a phone clip, and the clip was read upside down). Else every second
+    difference that is not free flight lies above the flights' curvature on an axis pointing up, and below it on
+    one pointing down: an impact (the velocity reverses upwards) far above, a ball at rest (no curvature) above
+    by g times the step squared; the sign of the large ones' sum decides (a tracking jump makes large
+    differences of both signs that cancel). Without any large one (no impact in view, no rest), a dropped
+    ball starts above its median position.
     """
     valid = np.isfinite(height)
     t, y = time_s[valid], height[valid]
     lag = max(1, int(round(0.01 / float(np.median(np.diff(t)))))) if t.size > 1 else 1
     if y.size > 2 * lag:
-        span = t[2 * lag:] - t[: -2 * lag]
-        whole = span <= GAP_SPAN_FACTOR * float(np.median(span))
         floor = 1e-12 * float(np.ptp(y))
-        curvature = (y[2 * lag:] - 2 * y[lag:-lag] + y[: -2 * lag])[whole]
+        curvature = y[2 * lag:] - 2 * y[lag:-lag] + y[: -2 * lag]
         # a clean 30 Hz log's flights curve by 11 mm a step, which stood out from a 0.2 mm noise as if every
         # sample were an impact; a ball held for seconds made the median a rest's 0
-        moving = np.abs((y[2 * lag:] - y[: -2 * lag])[whole]) > 5 * max(robust_sigma(curvature), floor)
+        moving = np.abs(y[2 * lag:] - y[: -2 * lag]) > 5 * max(robust_sigma(curvature), floor)
         flights = curvature[moving] if np.count_nonzero(moving) >= 3 else curvature
         centre = float(np.median(flights))
+        spread = max(robust_sigma(flights, centre=centre), floor)
+        if abs(centre) >= FLIGHT_CURVATURE_SIGMAS * MEDIAN_SE_FACTOR * spread / np.sqrt(flights.size):
+            return -float(np.sign(centre))  # flights curve down
         curvature = curvature - centre
-        large = curvature[np.abs(curvature) > 10 * max(robust_sigma(flights, centre=centre), floor)]
+        large = curvature[np.abs(curvature) > 10 * spread]
         if large.size and large.sum() != 0:
             return float(np.sign(large.sum()))
     return -1.0 if y[0] < np.median(y) else 1.0
