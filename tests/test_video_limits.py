@@ -285,6 +285,25 @@ def test_a_tracked_ball_that_does_not_fall_with_g_is_refused_with_what_was_track
     assert "--ball-at-px" in message and "column names" not in message and "\n" not in message
 
 
+def test_a_video_whose_capture_rate_came_from_gravity_is_refused_with_that_rate_named(tmp_path):
+    """The capture rate inferred from flights found in the file's time (1120 fps of a 120 fps phone clip, from
+    flights read upside down) and the flights at it not falling with g: the refusal names the inferred rate and
+    the option that overrides it before the tracking."""
+    time = np.arange(300) / 1120.0
+    heights = 1.0 - 0.5 * 842.0 * (time - time[0]) ** 2
+    trajectory = xr.Dataset({"y": ("time", heights), "quality": ("time", np.zeros(300, np.int8))},
+                            coords={"time": time})
+    note = "gravity gives 1120 fps against the file's 120.002 fps, not within 2 % of a common rate: the estimate is used"
+    trajectory.attrs.update(capture_fps=1120.4, capture_fps_source="inferred from gravity (not a common rate)",
+                            capture_rate_note=note)
+    message = video_limits.not_free_fall(tmp_path / "clip.mov", 842.0, trajectory)
+    assert message.startswith(f"{tmp_path / 'clip.mov'}: not analysable: the tracked ball falls with 842 m/s², not g")
+    assert note in message and "--capture-fps" in message and "\n" not in message
+    assert message.index("--capture-fps") < message.index("--ball-at-px")
+    trajectory.attrs.update(capture_fps=120.0, capture_fps_source="container")
+    assert "--capture-fps" not in video_limits.not_free_fall(tmp_path / "clip.mov", 842.0, trajectory)
+
+
 def test_a_video_whose_every_impact_gains_height_is_refused_with_the_tracking_as_the_cause(tmp_path):
     """Flights that rise higher after each bounce (apexes 0.20, 0.26, 0.33, 0.42 m: a tracker that followed
     something else): no impact gives a physical e, and the refusal says so with what was tracked, not that

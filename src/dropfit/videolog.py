@@ -284,7 +284,7 @@ def trajectory_from_video(path, ball_radius_m=None, scale_m_per_px=None, capture
 
 
 #: ``capture_fps_source`` of a capture rate inferred from gravity but near no common rate.
-_RAW_RATE_SOURCE = "inferred from gravity (not a common rate)"
+_RAW_RATE_SOURCE = f"{video_limits.GRAVITY_CAPTURE_RATE_SOURCE} (not a common rate)"
 _CALIBRATION_TEXT = {"given": "given scale in m/px", "points": "scale from two points a given distance apart",
                      "target": "plane and scale from a target of known size (camera tilt corrected)",
                      "ruler": "scale from the ruler's ticks",
@@ -444,7 +444,7 @@ def _capture_time(table, rows, seen_rows, scales, capture_fps, gravity_m_s2, ext
                      capture_rate_note=f"the file's rate is taken as the capture rate ({error})")
         return time
     rate = infer_capture_rate(fit.acceleration, scales[reference][0], file_fps, gravity_m_s2)
-    source = "container" if rate["capture_fps"] == file_fps else "inferred from gravity" if rate["snapped"] \
+    source = "container" if rate["capture_fps"] == file_fps else video_limits.GRAVITY_CAPTURE_RATE_SOURCE if rate["snapped"] \
         else _RAW_RATE_SOURCE
     extra.update(capture_fps=rate["capture_fps"], capture_fps_source=source,
                  capture_fps_estimate=rate["estimate_fps"],

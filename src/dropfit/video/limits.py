@@ -144,6 +144,9 @@ def check_recording(table, source):
         raise InputError(f"{shown_path(source)}: not analysable: {'; '.join(violations)}{cause}")
 
 
+#: ``capture_fps_source`` of a capture rate inferred from the flights' curvature (alone, or followed by
+#: " (not a common rate)").
+GRAVITY_CAPTURE_RATE_SOURCE = "inferred from gravity"
 #: A video whose ball was measured in at least this fraction of its frames was tracked well: if its flights
 #: do not fall with g, the cause is elsewhere (too few frames per flight, the scale).
 WELL_TRACKED_FRACTION = 0.8
@@ -155,7 +158,10 @@ def not_free_fall(source, acceleration_m_s2, trajectory):
     When the ball was measured in most frames (:data:`WELL_TRACKED_FRACTION`) and the whole height
     covered would be fallen in fewer than :data:`MIN_FRAME_INTERVALS_PER_FLIGHT` frame intervals, the
     flights are too sparsely sampled to be told apart from their impacts, and the refusal says so (with
-    the frame rate that would do); else it points at the tracking.
+    the frame rate that would do). When the capture rate was inferred from the flights' curvature in the
+    file's time (``capture_fps_source`` in the trajectory's attributes), it names that rate first: flights
+    found wrongly there (a hand's jumps that turned the image rows' sign) made 1120 fps of a 120 fps clip, and
+    the refusal had blamed the tracking alone. Else it points at the tracking.
 
     Parameters
     ----------
@@ -164,7 +170,8 @@ def not_free_fall(source, acceleration_m_s2, trajectory):
     acceleration_m_s2 : float
         The tracked flights' shared downward acceleration, m/s².
     trajectory : xarray.Dataset
-        The video's trajectory (``time`` in s, ``y`` in m, ``quality`` 0 for a measured frame).
+        The video's trajectory (``time`` in s, ``y`` in m, ``quality`` 0 for a measured frame; ``attrs`` may hold
+        ``capture_fps_source`` and ``capture_rate_note``).
 
     Returns
     -------
@@ -184,6 +191,12 @@ def not_free_fall(source, acceleration_m_s2, trajectory):
         return (f"{said}: a fall over that height lasts {fall_s / interval_s:.1f} frame intervals at "
                 f"{1.0 / interval_s:.3g} frames/s, fewer than the {MIN_FRAME_INTERVALS_PER_FLIGHT} a flight needs "
                 f"to be told from its impacts; film at {needed:g} frames/s or more (slow motion), or drop from higher")
+    if str(trajectory.attrs.get("capture_fps_source", "")).startswith(GRAVITY_CAPTURE_RATE_SOURCE):
+        # the rate came from flights found in the file's time: found wrongly, they give a wrong rate too
+        return (f"{said}, at the capture rate inferred from the flights in the file's time "
+                f"({trajectory.attrs.get('capture_rate_note', '')}); if the clip is not slow motion, give the file's "
+                f"rate with --capture-fps (samples.tsv column capture_fps); else the tracker lost the ball in its "
+                f"flights or followed something else{_unclean_words(trajectory)}; {TRACKER_HELP}")
     return (f"{said} (the tracker lost the ball in its flights or followed something else, or the scale is wrong"
             f"{_unclean_words(trajectory)}); {TRACKER_HELP}")
 
