@@ -233,7 +233,8 @@ def test_an_hevc_10_bit_mov_is_stored_as_a_phone_stores_it(tmp_path):
     frames, _, rotations = decode(tmp_path / "a.mov")
     assert set(rotations) == {config.rotation_deg % 360}
     rows = truth.frames
-    visible = rows[(rows["phase"] == "flight") & rows["in_frame"] & ~rows["hand_visible"] & (rows["occluded_fraction"] == 0)]
+    clear = rows["in_frame"] & ~rows["hand_visible"] & (rows["occluded_fraction"] == 0)
+    visible = rows[(rows["phase"] == "flight") & clear]
     row = visible.iloc[len(visible) // 2]
     x, y = yellow_centroid(frames[int(row["frame"])], row)
     assert np.hypot(x - row["x_px"], y - row["y_px"]) < 0.5
@@ -241,5 +242,4 @@ def test_an_hevc_10_bit_mov_is_stored_as_a_phone_stores_it(tmp_path):
 
 def test_ten_bits_are_refused_without_hevc(tmp_path):
     with pytest.raises(ValueError, match="10 bits need libx265"):
-        ClipWriter(tmp_path / "clip.mp4", 64, 64, 0, Fraction(30), Fraction(1, 30), codec="libx264",
-                            bit_depth=10)
+        ClipWriter(tmp_path / "clip.mp4", 64, 64, 0, Fraction(30), Fraction(1, 30), codec="libx264", bit_depth=10)

@@ -444,8 +444,8 @@ def _capture_time(table, rows, seen_rows, scales, capture_fps, gravity_m_s2, ext
                      capture_rate_note=f"the file's rate is taken as the capture rate ({error})")
         return time
     rate = infer_capture_rate(fit.acceleration, scales[reference][0], file_fps, gravity_m_s2)
-    source = "container" if rate["capture_fps"] == file_fps else video_limits.GRAVITY_CAPTURE_RATE_SOURCE if rate["snapped"] \
-        else _RAW_RATE_SOURCE
+    source = ("container" if rate["capture_fps"] == file_fps
+              else video_limits.GRAVITY_CAPTURE_RATE_SOURCE if rate["snapped"] else _RAW_RATE_SOURCE)
     extra.update(capture_fps=rate["capture_fps"], capture_fps_source=source,
                  capture_fps_estimate=rate["estimate_fps"],
                  capture_rate_note=f"{rate['why']}; length scale from the {reference}")

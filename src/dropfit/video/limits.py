@@ -147,6 +147,8 @@ def check_recording(table, source):
 #: ``capture_fps_source`` of a capture rate inferred from the flights' curvature (alone, or followed by
 #: " (not a common rate)").
 GRAVITY_CAPTURE_RATE_SOURCE = "inferred from gravity"
+#: What a refusal says when the tracking, not the drop, is the likely cause.
+TRACKING_FAILED = "the tracker lost the ball in its flights or followed something else"
 #: A video whose ball was measured in at least this fraction of its frames was tracked well: if its flights
 #: do not fall with g, the cause is elsewhere (too few frames per flight, the scale).
 WELL_TRACKED_FRACTION = 0.8
@@ -195,10 +197,9 @@ def not_free_fall(source, acceleration_m_s2, trajectory):
         # the rate came from flights found in the file's time: found wrongly, they give a wrong rate too
         return (f"{said}, at the capture rate inferred from the flights in the file's time "
                 f"({trajectory.attrs.get('capture_rate_note', '')}); if the clip is not slow motion, give the file's "
-                f"rate with --capture-fps (samples.tsv column capture_fps); else the tracker lost the ball in its "
-                f"flights or followed something else{_unclean_words(trajectory)}; {TRACKER_HELP}")
-    return (f"{said} (the tracker lost the ball in its flights or followed something else, or the scale is wrong"
-            f"{_unclean_words(trajectory)}); {TRACKER_HELP}")
+                f"rate with --capture-fps (samples.tsv column capture_fps); else {TRACKING_FAILED}"
+                f"{_unclean_words(trajectory)}; {TRACKER_HELP}")
+    return f"{said} ({TRACKING_FAILED}, or the scale is wrong{_unclean_words(trajectory)}); {TRACKER_HELP}"
 
 
 def _measured(trajectory):
@@ -230,7 +231,7 @@ def analysis_refusal(message, trajectory):
     measured, _, found = _measured(trajectory)
     if measured.size and measured.mean() >= WELL_TRACKED_FRACTION:
         return message
-    return (f"{message}: {found} (the tracker lost the ball in its flights or followed something else"
+    return (f"{message}: {found} ({TRACKING_FAILED}"
             f"{_unclean_words(trajectory)}); {TRACKER_HELP}")
 
 
