@@ -288,7 +288,8 @@ def real_data_dir(name):
     return None
 
 
-def encode_clip(path, frames, fps=30, codec="libx264", rotation_deg=None, pts=None, time_base=None, gop=None):
+def encode_clip(path, frames, fps=30, codec="libx264", rotation_deg=None, pts=None, time_base=None, gop=None,
+                pix_fmt=None):
     """Encode BGR uint8 ``frames`` with PyAV into ``path`` (container from the suffix); return ``path``.
 
     Parameters
@@ -303,6 +304,8 @@ def encode_clip(path, frames, fps=30, codec="libx264", rotation_deg=None, pts=No
         Each frame's presentation time stamp, in ``time_base`` units, for irregular timing.
     gop : int, optional
         Frames between key frames.
+    pix_fmt : str, optional
+        The stored pixel format, instead of the codec's 4:2:0 one (``yuv444p`` for libx264).
     """
     import av
 
@@ -310,7 +313,7 @@ def encode_clip(path, frames, fps=30, codec="libx264", rotation_deg=None, pts=No
     container = av.open(str(path), "w")
     stream = container.add_stream(codec, rate=fps)
     stream.width, stream.height = width, height
-    stream.pix_fmt = "yuvj420p" if codec == "mjpeg" else "yuv420p"
+    stream.pix_fmt = pix_fmt or ("yuvj420p" if codec == "mjpeg" else "yuv420p")
     if gop:
         stream.codec_context.gop_size = gop
     if codec == "libx264":

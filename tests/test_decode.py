@@ -118,6 +118,55 @@ def test_a_clip_is_opened_once_and_decoded_once(tmp_path, monkeypatch, name, cod
         assert error.max() < CENTRE_TOLERANCE_PX
 
 
+def colour_noise_frames(count=6, seed=3):
+    """Frames of colour noise: each pixel's conversion differs from its neighbours'."""
+    rng = np.random.default_rng(seed)
+    return [rng.integers(0, 256, (*SHAPE, 3), dtype=np.uint8) for _ in range(count)]
+
+
+def plainly_converted(path, rotation_deg):
+    """Every frame of ``path`` converted whole by PyAV and turned ``rotation_deg`` counter-clockwise."""
+    with av.open(str(path)) as container:
+        return [np.rot90(frame.to_ndarray(format="bgr24"), k=rotation_deg // 90) for frame in container.decode(video=0)]
+
+
+#: Reads a tracker makes of a frame (sparse rows, a sparse grid, windows), and others numpy allows.
+READS = [np.s_[::16], np.s_[::16, ::16], np.s_[5], np.s_[:, 7], np.s_[-1], np.s_[3:9, 11:12], np.s_[-5:, -3:],
+         np.s_[10:4], np.s_[::-1, :5], np.s_[31:70:3, 1:2], np.s_[7:40, 13:90, 1], np.s_[:, :], np.s_[1:2, 3:4, ::-1]]
+
+
+@pytest.mark.parametrize("name, codec, rotation", [("clip.avi", "mjpeg", 0), ("clip.mp4", "libx264", 270),
+                                                   ("clip.mov", "libx264", 90), ("turned.mp4", "libx264", 180)])
+def test_frames_converted_where_they_are_read_give_the_pixels_of_the_whole_frame(tmp_path, name, codec, rotation):
+    """Each read of a frame converted lazily (windows at odd places, sparse rows and grids, single rows and
+    columns, a channel) is bit for bit that part of the frame PyAV converts whole, turned as shown."""
+    path = encode_clip(tmp_path / name, colour_noise_frames(), codec=codec, rotation_deg=rotation or None)
+    whole = plainly_converted(path, rotation)
+    rng = np.random.default_rng(4)
+    with VideoFile(path) as video, video.frames(lazy=True) as frames:
+        for index, _, frame in frames:
+            assert isinstance(frame, decode.LazyFrame) and frame.shape == whole[index].shape
+            height, width = frame.shape[:2]
+            windows = [np.s_[y:y + h, x:x + w] for y, x, h, w in zip(
+                rng.integers(0, height, 60), rng.integers(0, width, 60), rng.integers(1, 60, 60), rng.integers(1, 60, 60))]
+            for key in READS + windows:
+                assert np.array_equal(frame[key], whole[index][key]), key
+            assert np.array_equal(np.asarray(frame), whole[index])
+            assert np.array_equal(frame[::16], whole[index][::16])  # again, as the previous frame's rows
+
+
+def test_frames_of_other_pixel_formats_are_converted_whole(tmp_path):
+    """A 4:4:4 clip (no 2 × 2 chroma blocks) is handed out in whole frames, and tracked."""
+    path = encode_clip(tmp_path / "full_chroma.mp4", colour_noise_frames(), pix_fmt="yuv444p")
+    with VideoFile(path) as video, video.frames(lazy=True) as frames:
+        images = [image for _, _, image in frames]
+    assert all(isinstance(image, np.ndarray) for image in images)
+    assert all(np.array_equal(image, expected) for image, expected in zip(images, plainly_converted(path, 0)))
+    frames, centres = ball_frames(40)
+    table = track_video(encode_clip(tmp_path / "ball444.mp4", frames, pix_fmt="yuv444p"))
+    assert np.hypot(table["x_px"] - centres[:, 0], table["y_px"] - centres[:, 1]).max() < CENTRE_TOLERANCE_PX
+
+
 def test_background_samples_are_the_frames_a_plain_decoding_gives(tmp_path):
     """Key frames reached by seeking (decoded by a decoder of their own for H.264) are the very frames,
     at the same times, that decoding the file in order gives, turned as the phone shows them."""

@@ -3,7 +3,8 @@
 A clip is opened once (:class:`VideoFile`): a few frames spread over it are reached by seeking
 (:meth:`VideoFile.samples`, for the background), then every frame is decoded once, in order, in
 a second thread (:meth:`VideoFile.frames`). Frames come as the phone shows them: BGR, with the
-container's rotation (display matrix) applied. Times are the frames' presentation time stamps
+container's rotation (display matrix) applied; for the tracker, converted only where it reads them
+(:class:`LazyFrame`). Times are the frames' presentation time stamps
 (pts × time base), so variable frame timing, repeated and dropped frames keep their true instants
 (:func:`frame_times`); the container's nominal rate is the fallback.
 """
@@ -12,6 +13,7 @@ from __future__ import annotations
 
 import contextlib
 import math
+import operator
 import os
 import queue
 import sys
@@ -20,9 +22,11 @@ import time
 from dataclasses import dataclass
 from fractions import Fraction
 from pathlib import Path
+from typing import NamedTuple
 
 import av
 import numpy as np
+from av.video.reformatter import VideoReformatter
 
 from ..errors import InputError, shown_path
 from .opencv import cv2
@@ -87,6 +91,18 @@ PROGRESS_MIN_FRAMES = 500
 #: Least time between two updates of the progress line on a terminal, s.
 PROGRESS_INTERVAL_S = 0.25
 
+#: Pixel formats decoded frames of which are converted to BGR only where the tracker reads them
+#: (:class:`LazyFrame`): planar 8-bit 4:2:0, whose 2 × 2 chroma blocks a quarter turn keeps whole.
+LAZY_FORMATS = ("yuv420p", "yuvj420p")
+#: A read of a :class:`LazyFrame` whose tile exceeds this fraction of the frame converts it whole.
+LAZY_WHOLE_FRACTION = 0.25
+#: Sparse reads a :class:`LazyFrame` keeps (its sparse rows are read again as the previous frame's, and
+#: hold the sparse grid the frame's gain is measured on).
+LAZY_READS_KEPT = 4
+#: Sizes of the tiles a :class:`LazyFrame` converts are multiples of this, px (a few dozen sizes per clip).
+TILE_ALIGN_PX = 32
+#: Tiles (a frame and its converter) kept per thread, one per size.
+TILES_KEPT = 256
 #: cv2.rotate code that turns a coded frame into the displayed one, by counter-clockwise rotation in degrees.
 _ROTATE_CODES = {90: cv2.ROTATE_90_COUNTERCLOCKWISE, 180: cv2.ROTATE_180, 270: cv2.ROTATE_90_CLOCKWISE}
 
@@ -105,6 +121,210 @@ def upright(image, rotation_deg):
     the phone shows it."""
     code = _ROTATE_CODES.get(rotation_deg)
     return image if code is None else cv2.rotate(image, code)
+
+
+def _plane_array(plane):
+    """A frame's plane as a uint8 array (rows × width), a view of its buffer (no copy)."""
+    return np.frombuffer(plane, np.uint8).reshape(plane.height, plane.line_size)[:, :plane.width]
+
+
+class _AxisCut(NamedTuple):
+    """How a tile is cut along one axis of a displayed frame (:func:`_axis_cut`)."""
+
+    luma: slice | np.ndarray  # the luma rows (or columns) of the tile
+    chroma: slice | np.ndarray  # ... and the chroma ones
+    doubled: bool  # whether each luma row of ``luma`` is to be doubled
+    keep: slice  # what of the converted tile was asked for
+    count: int  # pixels asked for
+    squeezed: bool  # asked for by an int: the axis is dropped
+
+    def tile_length(self):
+        """Pixels of the tile along the axis."""
+        return 2 * self.count if self.doubled else self.luma.stop - self.luma.start
+
+
+def _axis_cut(index, length):
+    """How a tile is cut along one axis of a displayed frame for ``index`` (an int or a slice of positive
+    step): an :class:`_AxisCut`; None for a slice of negative step.
+
+    A run of neighbouring pixels widens to even bounds, so that it holds whole chroma blocks; pixels picked
+    singly (a step > 1) are each doubled into a block of their own, with their own block's chroma."""
+    squeezed = not isinstance(index, slice)
+    if squeezed:
+        position = operator.index(index)
+        position += length if position < 0 else 0
+        if not 0 <= position < length:
+            raise IndexError(f"index {index} is out of bounds for an axis of size {length}")
+        index = slice(position, position + 1)
+    start, stop, step = index.indices(length)
+    count = len(range(start, stop, step))
+    if step < 1:
+        return None
+    if step == 1:
+        low, high = start - start % 2, min(stop + stop % 2, length)
+        return _AxisCut(slice(low, high), slice(low // 2, high // 2), False, slice(start - low, start - low + count),
+                        count, squeezed)
+    picked = np.arange(start, stop, step)
+    return _AxisCut(picked, picked // 2, True, slice(0, 2 * count, 2), count, squeezed)
+
+
+def _reflected(index, length):
+    """``length - 1 - index`` for an index array or a slice of step 1 (a slice of step -1)."""
+    if not isinstance(index, slice):
+        return length - 1 - index
+    stop = length - 1 - index.stop
+    return slice(length - 1 - index.start, stop if stop >= 0 else None, -1)
+
+
+def _gathered(plane, turns, rows, columns):
+    """``numpy.rot90(plane, turns)[rows][:, columns]`` (slices of step 1 or index arrays), contiguous, read
+    from ``plane`` in its own order (the turned view's rows are the plane's columns: slow to gather)."""
+    height, width = plane.shape
+    if turns == 1:
+        rows, columns = columns, _reflected(rows, width)
+    elif turns == 2:
+        rows, columns = _reflected(rows, height), _reflected(columns, width)
+    elif turns == 3:
+        rows, columns = _reflected(columns, height), rows
+    if isinstance(rows, slice) or isinstance(columns, slice):
+        picked = plane[rows, columns]
+    else:
+        picked = plane[np.ix_(rows, columns)]
+    return np.ascontiguousarray(picked.T if turns % 2 else picked)
+
+
+class LazyFrame:
+    """A decoded frame as the phone shows it (BGR uint8, rotation applied), converted only where it is read.
+
+    Indexing the two image axes with ints or slices of positive step (``frame[y0:y1, x0:x1]``,
+    ``frame[::16]``) gives the BGR pixels there, bit for bit those of :func:`bgr_image` and
+    :func:`upright` applied to the whole frame: FFmpeg's converter maps each pixel from its own luma
+    and the chroma of its 2 × 2 block, so a tile cut on even rows and columns of the (turned) planes
+    converts as in the whole frame (a quarter turn keeps the blocks of a frame of even size), and
+    pixels picked singly are each doubled into a block of their own (such sparse reads are kept, and
+    are read-only). A tracker reads a few windows
+    about the ball, sparse rows and a sparse grid of a frame: a fraction of its pixels, at a
+    fraction of the cost of converting and turning all of them. A read whose tile would exceed
+    ``LAZY_WHOLE_FRACTION`` of the frame converts the whole frame instead, kept until :meth:`release`;
+    ``numpy.asarray(frame)`` gives the whole frame. Only planar 8-bit 4:2:0 frames of even size
+    (:func:`lazily_convertible`); read a frame from one thread at a time (FFmpeg's converter of a
+    frame is the frame's own).
+
+    Parameters
+    ----------
+    frame : av.VideoFrame
+        The decoded frame (kept: its planes are read in place).
+    rotation_deg : int
+        Counter-clockwise rotation that turns it as the phone shows it, degrees (0, 90, 180, 270).
+
+    Attributes
+    ----------
+    shape : (int, int, int)
+        Height, width (px) and 3 (BGR) of the frame as shown.
+    nbytes : int
+        Bytes of the frame once converted whole, B.
+    """
+
+    ndim = 3
+    dtype = np.dtype(np.uint8)
+
+    def __init__(self, frame, rotation_deg):
+        self._frame, self._rotation_deg = frame, rotation_deg
+        self._turns = rotation_deg // 90
+        self._planes = [_plane_array(plane) for plane in frame.planes[:3]]
+        height, width = self._planes[0].shape[::-1] if self._turns % 2 else self._planes[0].shape
+        self.shape = (height, width, 3)
+        self.nbytes = height * width * 3
+        self._whole = None
+        self._reads = {}  # the last few sparse reads, by their key: a frame's sparse rows are read again
+
+    def __array__(self, dtype=None, copy=None):
+        image = self._whole.copy() if self._whole is not None else self._converted()
+        return image if dtype is None else image.astype(dtype)
+
+    def _converted(self):
+        return upright(bgr_image(self._frame), self._rotation_deg)
+
+    def whole(self):
+        """The whole frame, BGR uint8, converted once and kept until :meth:`release`."""
+        if self._whole is None:
+            self._whole = self._converted()
+        return self._whole
+
+    def release(self):
+        """Drop what was converted (the frame stays readable)."""
+        self._whole, self._reads = None, {}
+
+    def __getitem__(self, key):
+        key = key if isinstance(key, tuple) else (key,)
+        spatial, rest = (key + (slice(None), slice(None)))[:2], key[2:]
+        height, width = self.shape[:2]
+        rows, columns = cuts = [_axis_cut(index, length) for index, length in zip(spatial, (height, width))]
+        if None in cuts or rows.count == 0 or columns.count == 0:
+            # a reversed or empty read: what numpy gives, from the whole frame or (empty) from a stand-in
+            source = self.whole() if None in cuts else np.broadcast_to(np.zeros((), np.uint8), self.shape)
+            return np.array(source[key])
+        if self._whole is not None or rows.tile_length() * columns.tile_length() > LAZY_WHOLE_FRACTION * height * width:
+            return np.array(self.whole()[key])
+        sparse = rows.doubled or columns.doubled
+        if sparse:
+            memo = tuple((index.start, index.stop, index.step) if isinstance(index, slice) else index for index in key)
+            if (found := self._reads.get(memo)) is not None:
+                return found
+            if isinstance(spatial[0], slice) and (whole_rows := self._reads.get(memo[:1])) is not None:
+                return _read_only(whole_rows[(slice(None), spatial[1], *rest)])  # a grid within sparse rows read
+        luma, blue, red = self._planes
+        picked_luma = _gathered(luma, self._turns, rows.luma, columns.luma)
+        picked_luma = np.repeat(picked_luma, 2, axis=0) if rows.doubled else picked_luma
+        picked_luma = np.repeat(picked_luma, 2, axis=1) if columns.doubled else picked_luma
+        tile = [picked_luma] + [_gathered(plane, self._turns, rows.chroma, columns.chroma) for plane in (blue, red)]
+        image = _converted_tile(tile, self._frame)[rows.keep, columns.keep]
+        image = image[0] if rows.squeezed else image
+        image = image[:, 0] if columns.squeezed else image
+        image = image[(Ellipsis, *rest)] if rest else image
+        if not sparse:
+            return image
+        if len(self._reads) >= LAZY_READS_KEPT:
+            self._reads.clear()
+        self._reads[memo] = _read_only(image)
+        return image
+
+
+def _read_only(image):
+    image.flags.writeable = False
+    return image
+
+
+_tiles = threading.local()
+
+
+def _converted_tile(planes, source):
+    """BGR uint8 of a 4:2:0 tile (luma 2m × 2n, chroma m × n each) converted as ``source``'s frames are.
+
+    The tile is copied into a frame of a size rounded up to ``TILE_ALIGN_PX`` (its rows unpadded), one
+    per size and thread, converted by a converter kept with it: making a frame and a converter costs
+    several times a small tile's conversion. The padding converts too, and is cut off."""
+    height, width = planes[0].shape
+    size = (-(-width // TILE_ALIGN_PX) * TILE_ALIGN_PX, -(-height // TILE_ALIGN_PX) * TILE_ALIGN_PX)
+    key = (*size, source.format.name, int(source.colorspace), int(source.color_range))
+    cache = _tiles.__dict__.setdefault("by_size", {})
+    if (entry := cache.get(key)) is None:
+        if len(cache) >= TILES_KEPT:
+            cache.clear()
+        tile = av.VideoFrame(*size, source.format.name)
+        tile.colorspace, tile.color_range = source.colorspace, source.color_range
+        buffers = [np.zeros((plane.height, plane.line_size), np.uint8) for plane in tile.planes]
+        entry = cache[key] = (tile, buffers, VideoReformatter())
+    tile, buffers, reformatter = entry
+    for plane, buffer, pixels in zip(tile.planes, buffers, planes):
+        buffer[:pixels.shape[0], :pixels.shape[1]] = pixels
+        plane.update(buffer)
+    return reformatter.reformat(tile, format="bgr24", threads=1).to_ndarray()[:height, :width]
+
+
+def lazily_convertible(frame):
+    """Whether a decoded frame can be a :class:`LazyFrame`: planar 8-bit 4:2:0, of even width and height."""
+    return frame.format.name in LAZY_FORMATS and frame.width % 2 == 0 and frame.height % 2 == 0
 
 
 @dataclass(frozen=True)
@@ -304,16 +524,21 @@ class VideoFile:
         self._container.seek(self._first.pts if self._first.pts is not None else 0, stream=self._stream,
                              backward=True)
 
-    def frames(self, progress=None):
+    def frames(self, progress=None, lazy=False):
         """Every frame once, in order, decoded in a second thread from now on: a :class:`DecodedFrames`.
 
         Parameters
         ----------
         progress : Progress, optional
             Told of each frame handed out, and finished at the end.
+        lazy : bool
+            Hand out frames that can be (:func:`lazily_convertible`) as :class:`LazyFrame` objects,
+            converted where they are read, not whole in the decoding thread.
         """
         self._rewind()
-        frames = ((self.time_s(frame), self.image(frame)) for frame in self._decoded())
+        rotation = self.info.rotation_deg
+        frames = ((self.time_s(frame), LazyFrame(frame, rotation) if lazy and lazily_convertible(frame)
+                   else self.image(frame)) for frame in self._decoded())
         return DecodedFrames(frames, self.info.width * self.info.height * 3, f"decode {self.path.name}", progress)
 
     def frame(self, index):

@@ -57,7 +57,9 @@ class Flight(NamedTuple):
 
 def frame_candidates(frame, background, contrast):
     """Lone round blobs of one frame in ``contrast``, not at a fixture: array (n, 3) of x, y and radius, px."""
-    blobs = [blob for blob in off_fixtures(frame_blobs(frame, background, contrast), contrast.fixtures) if blob[3]]
+    # (a frame decoded lazily, :class:`dropfit.video.decode.LazyFrame`, is converted whole)
+    blobs = [blob for blob in off_fixtures(frame_blobs(np.asarray(frame), background, contrast), contrast.fixtures)
+             if blob[3]]
     return np.array([blob[:3] for blob in blobs[:MAX_CANDIDATES]], float).reshape(-1, 3)
 
 

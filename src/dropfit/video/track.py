@@ -51,7 +51,8 @@ from .background import (BACKGROUND_SAMPLES, Background, background_without_ball
                          to_grey)
 from .contrast import (CHANNELS, CHROMA, GREY, Contrast, available_contrasts, contrast_of, frame_gain, hand_pixels,
                        scene_colour, skin_mask)
-from .decode import MIN_FRAMES, Progress, VideoFile, check_frame_count, check_video_file, frame_times, spread_indices
+from .decode import (MIN_FRAMES, LazyFrame, Progress, VideoFile, check_frame_count, check_video_file, frame_times,
+                     spread_indices)
 from .detect import find_ball, measure_ball, searched_frame
 from .link import extrapolated, find_flight
 from .opencv import cv2
@@ -377,7 +378,7 @@ class BallTracker:
             window = np.s_[max(int(y - reach), 0):int(y + reach) + 1, max(int(x - reach), 0):int(x + reach) + 1]
             if frame[window].size and cv2.norm(frame[window], previous[window], cv2.NORM_INF) > threshold:
                 return False
-        return cv2.norm(frame, previous, cv2.NORM_INF) <= threshold
+        return cv2.norm(np.asarray(frame), np.asarray(previous), cv2.NORM_INF) <= threshold
 
     def update(self, frame):
         """Measure the ball in the next frame.
@@ -393,7 +394,7 @@ class BallTracker:
             Centre x, y and radius, px (NaN when lost or duplicate), the quality flag, and the
             circle fit's centre standard error and RMS residual, px (NaN unless a fit was used).
         """
-        frame = np.asarray(frame)
+        frame = frame if isinstance(frame, LazyFrame) else np.asarray(frame)
         if frame.shape[:2] != self.background.grey.shape:
             raise ValueError(f"frame of shape {frame.shape} does not match the background {self.background.grey.shape}")
         self._index += 1
@@ -401,6 +402,8 @@ class BallTracker:
         radius = self.radius_ref_px or 10.0
         half_size = 1.5 * radius + 2.0 * step + WINDOW_MARGIN_PX
         duplicate = self._is_duplicate(frame, predicted)
+        if isinstance(self._previous, LazyFrame):
+            self._previous.release()  # what was converted of it, kept for this frame's comparison
         self._previous = frame
         if duplicate:
             return math.nan, math.nan, math.nan, QUALITY_DUPLICATE, math.nan, math.nan, math.nan
@@ -838,7 +841,7 @@ CROP_MARGIN_PX = 2 * WINDOW_MARGIN_PX
 def _decoded_frames(path):
     """Every frame of the video at ``path`` again, in order (a second decoding pass)."""
     with VideoFile(path) as video:
-        for _, _, image in video.frames():
+        for _, _, image in video.frames(lazy=True):
             yield image
 
 
@@ -980,7 +983,7 @@ def track_video_and_background(path, capture_fps=None, expected_radius_px=None, 
             raise InputError(f"{name}: the frames could not be decoded consistently (corrupt video)")
         sample_images = [image for _, image in samples]
         # the frames are decoded while the scene is read from the samples
-        with video.frames(Progress(path.name, info.frame_count, progress_stream)) as frames:
+        with video.frames(Progress(path.name, info.frame_count, progress_stream), lazy=True) as frames:
             background, contrasts = scene_and_contrasts(sample_images, expected_radius_px, hints.ball_colour_bgr)
             tracker = BallTracker(background, expected_radius_px, contrasts[0], hints)
             kept = _KeptFrames(frame_memory_bytes)
