@@ -130,9 +130,11 @@ def plainly_converted(path, rotation_deg):
         return [np.rot90(frame.to_ndarray(format="bgr24"), k=rotation_deg // 90) for frame in container.decode(video=0)]
 
 
-#: Reads a tracker makes of a frame (sparse rows, a sparse grid, windows), and others numpy allows.
+#: Reads a tracker makes of a frame (sparse rows, then a grid within them, windows), and others numpy allows;
+#: last, one that converts the whole frame (a negative step).
 READS = [np.s_[::16], np.s_[::16, ::16], np.s_[5], np.s_[:, 7], np.s_[-1], np.s_[3:9, 11:12], np.s_[-5:, -3:],
-         np.s_[10:4], np.s_[::-1, :5], np.s_[31:70:3, 1:2], np.s_[7:40, 13:90, 1], np.s_[:, :], np.s_[1:2, 3:4, ::-1]]
+         np.s_[10:4], np.s_[31:70:3, 1:2], np.s_[7:40, 13:90, 1], np.s_[1:2, 3:4, ::-1], np.s_[5, 7],
+         np.s_[-1, 3, 2], np.s_[::16, 3:50], np.s_[::16, ::16, 1], np.s_[:, :], np.s_[::-1, :5]]
 
 
 @pytest.mark.parametrize("name, codec, rotation", [("clip.avi", "mjpeg", 0), ("clip.mp4", "libx264", 270),
@@ -149,10 +151,13 @@ def test_frames_converted_where_they_are_read_give_the_pixels_of_the_whole_frame
             height, width = frame.shape[:2]
             windows = [np.s_[y:y + h, x:x + w] for y, x, h, w in zip(
                 rng.integers(0, height, 60), rng.integers(0, width, 60), rng.integers(1, 60, 60), rng.integers(1, 60, 60))]
-            for key in READS + windows:
+            for key in READS + windows:  # each read alone
+                frame.release()
+                assert np.array_equal(frame[key], whole[index][key]), key
+            frame.release()
+            for key in READS:  # in a row, as a tracker reads (and the kept sparse reads serve later ones)
                 assert np.array_equal(frame[key], whole[index][key]), key
             assert np.array_equal(np.asarray(frame), whole[index])
-            assert np.array_equal(frame[::16], whole[index][::16])  # again, as the previous frame's rows
 
 
 def test_frames_of_other_pixel_formats_are_converted_whole(tmp_path):

@@ -101,8 +101,8 @@ LAZY_WHOLE_FRACTION = 0.25
 LAZY_READS_KEPT = 4
 #: Sizes of the tiles a :class:`LazyFrame` converts are multiples of this, px (a few dozen sizes per clip).
 TILE_ALIGN_PX = 32
-#: Tiles (a frame and its converter) kept per thread, one per size.
-TILES_KEPT = 256
+#: Bytes of the tiles (a frame, its buffers and converter, one per size) kept per thread, at most.
+TILES_KEPT_BYTES = 32 * 2**20
 #: cv2.rotate code that turns a coded frame into the displayed one, by counter-clockwise rotation in degrees.
 _ROTATE_CODES = {90: cv2.ROTATE_90_COUNTERCLOCKWISE, 180: cv2.ROTATE_180, 270: cv2.ROTATE_90_CLOCKWISE}
 
@@ -279,8 +279,8 @@ class LazyFrame:
         picked_luma = np.repeat(picked_luma, 2, axis=1) if columns.doubled else picked_luma
         tile = [picked_luma] + [_gathered(plane, self._turns, rows.chroma, columns.chroma) for plane in (blue, red)]
         image = _converted_tile(tile, self._frame)[rows.keep, columns.keep]
-        image = image[0] if rows.squeezed else image
         image = image[:, 0] if columns.squeezed else image
+        image = image[0] if rows.squeezed else image
         image = image[(Ellipsis, *rest)] if rest else image
         if not sparse:
             return image
@@ -295,7 +295,14 @@ def _read_only(image):
     return image
 
 
-_tiles = threading.local()
+class _TileCache(threading.local):
+    """Tiles kept by one thread (:func:`_converted_tile`): by size, and the bytes they hold."""
+
+    def __init__(self):
+        self.by_size, self.bytes = {}, 0
+
+
+_tiles = _TileCache()
 
 
 def _converted_tile(planes, source):
@@ -307,14 +314,16 @@ def _converted_tile(planes, source):
     height, width = planes[0].shape
     size = (-(-width // TILE_ALIGN_PX) * TILE_ALIGN_PX, -(-height // TILE_ALIGN_PX) * TILE_ALIGN_PX)
     key = (*size, source.format.name, int(source.colorspace), int(source.color_range))
-    cache = _tiles.__dict__.setdefault("by_size", {})
-    if (entry := cache.get(key)) is None:
-        if len(cache) >= TILES_KEPT:
-            cache.clear()
+    if (entry := _tiles.by_size.get(key)) is None:
         tile = av.VideoFrame(*size, source.format.name)
         tile.colorspace, tile.color_range = source.colorspace, source.color_range
         buffers = [np.zeros((plane.height, plane.line_size), np.uint8) for plane in tile.planes]
-        entry = cache[key] = (tile, buffers, VideoReformatter())
+        held = 2 * sum(buffer.nbytes for buffer in buffers) + 3 * size[0] * size[1]  # tile, buffers, its BGR
+        if _tiles.bytes + held > TILES_KEPT_BYTES:
+            _tiles.by_size.clear()
+            _tiles.bytes = 0
+        _tiles.bytes += held
+        entry = _tiles.by_size[key] = (tile, buffers, VideoReformatter())
     tile, buffers, reformatter = entry
     for plane, buffer, pixels in zip(tile.planes, buffers, planes):
         buffer[:pixels.shape[0], :pixels.shape[1]] = pixels
