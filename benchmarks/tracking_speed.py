@@ -25,8 +25,8 @@ In one process, every pass runs each method below over the same file, each doing
 * ``dropfit``          — :func:`dropfit.video.track.track_video` with its defaults (no radius hint;
   it opens the file once, estimates the background from 11 key frames reached by seeking, and
   decodes every frame once in a second thread, which starts while the scene is read from those;
-  a 4:2:0 frame is converted to BGR only where the tracker reads it, and whole by the decoding
-  thread when that thread is ahead of the tracker, :class:`dropfit.video.decode.LazyFrame`).
+  a 4:2:0 frame is converted to BGR only where the tracker reads it,
+  :class:`dropfit.video.decode.LazyFrame`).
 * ``cv2.HoughCircles`` — per frame: grey, ``medianBlur`` (5 px), ``HoughCircles`` (``HOUGH_GRADIENT``,
   dp 1, minDist 12 px, param1 100, param2 15, radii 0.7–1.3 times the known one); the circle
   closest to the previous position is the ball.
@@ -170,15 +170,20 @@ def encode_h264(source, path, fps):
 # --------------------------------------------------------------------------------------------------
 
 
-def _frames(path):
-    """Every frame of ``path`` as BGR uint8 as the phone shows it, decoded with PyAV and FFmpeg's own threads,
-    converted to BGR as dropfit converts them (:func:`dropfit.video.decode.bgr_image`) and turned by the
-    display rotation (:func:`dropfit.video.decode.upright`)."""
+def _decoded(path):
+    """Every frame of ``path`` (av.VideoFrame, in the codec's planes), decoded with PyAV and FFmpeg's own threads."""
     with av.open(str(path)) as container:
         stream = container.streams.video[0]
         stream.thread_type = "AUTO"
-        for frame in container.decode(stream):
-            yield upright(bgr_image(frame), round((frame.rotation or 0) / 90) * 90 % 360)
+        yield from container.decode(stream)
+
+
+def _frames(path):
+    """Every frame of ``path`` as BGR uint8 as the phone shows it (:func:`_decoded`), converted to BGR as dropfit
+    converts them (:func:`dropfit.video.decode.bgr_image`) and turned by the display rotation
+    (:func:`dropfit.video.decode.upright`)."""
+    for frame in _decoded(path):
+        yield upright(bgr_image(frame), round((frame.rotation or 0) / 90) * 90 % 360)
 
 
 def decode_only(path, **_):
@@ -189,10 +194,7 @@ def decode_only(path, **_):
 
 def decode_without_conversion(path, **_):
     """Decode every frame (FFmpeg's threads) and leave it in the codec's planes."""
-    with av.open(str(path)) as container:
-        stream = container.streams.video[0]
-        stream.thread_type = "AUTO"
-        count = sum(1 for _ in container.decode(stream))
+    count = sum(1 for _ in _decoded(path))
     return np.full(count, np.nan), np.full(count, np.nan)
 
 

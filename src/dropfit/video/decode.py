@@ -123,6 +123,12 @@ def upright(image, rotation_deg):
     return image if code is None else cv2.rotate(image, code)
 
 
+def shown_image(frame, rotation_deg):
+    """A decoded frame (av.VideoFrame) as the phone shows it: BGR uint8 (:func:`bgr_image`), turned
+    ``rotation_deg`` counter-clockwise (:func:`upright`)."""
+    return upright(bgr_image(frame), rotation_deg)
+
+
 def _plane_array(plane):
     """A frame's plane as a uint8 array (rows × width), a view of its buffer (no copy)."""
     return np.frombuffer(plane, np.uint8).reshape(plane.height, plane.line_size)[:, :plane.width]
@@ -239,16 +245,13 @@ class LazyFrame:
         self._reads = {}  # the last few sparse reads, by their key: a frame's sparse rows are read again
 
     def __array__(self, dtype=None, copy=None):
-        image = self._whole.copy() if self._whole is not None else self._converted()
+        image = self._whole.copy() if self._whole is not None else shown_image(self._frame, self._rotation_deg)
         return image if dtype is None else image.astype(dtype)
-
-    def _converted(self):
-        return upright(bgr_image(self._frame), self._rotation_deg)
 
     def whole(self):
         """The whole frame, BGR uint8, converted once and kept until :meth:`release`."""
         if self._whole is None:
-            self._whole = self._converted()
+            self._whole = shown_image(self._frame, self._rotation_deg)
         return self._whole
 
     def release(self):
@@ -449,7 +452,7 @@ class VideoFile:
 
     def image(self, frame):
         """The frame as the phone shows it: BGR uint8 (:func:`bgr_image`), rotation applied (:func:`upright`)."""
-        return upright(bgr_image(frame), self.info.rotation_deg)
+        return shown_image(frame, self.info.rotation_deg)
 
     def samples(self, count):
         """About ``count`` frames spread over the clip, for the background: (time s, BGR image) pairs.

@@ -378,7 +378,9 @@ class BallTracker:
             window = np.s_[max(int(y - reach), 0):int(y + reach) + 1, max(int(x - reach), 0):int(x + reach) + 1]
             if frame[window].size and cv2.norm(frame[window], previous[window], cv2.NORM_INF) > threshold:
                 return False
-        return cv2.norm(np.asarray(frame), np.asarray(previous), cv2.NORM_INF) <= threshold
+        # whole frames, kept: a repeated frame is compared whole again as the next frame's previous one
+        frame, previous = (image.whole() if isinstance(image, LazyFrame) else image for image in (frame, previous))
+        return cv2.norm(frame, previous, cv2.NORM_INF) <= threshold
 
     def update(self, frame):
         """Measure the ball in the next frame.
