@@ -130,8 +130,8 @@ def plainly_converted(path, rotation_deg):
         return [np.rot90(frame.to_ndarray(format="bgr24"), k=rotation_deg // 90) for frame in container.decode(video=0)]
 
 
-#: Reads a tracker makes of a frame (sparse rows, then a grid within them, windows), and others numpy allows;
-#: last, one that converts the whole frame (a negative step).
+#: Reads a tracker makes of a frame (a sparse grid, windows), and others numpy allows; last, one that converts
+#: the whole frame (a negative step).
 READS = [np.s_[::16], np.s_[::16, ::16], np.s_[5], np.s_[:, 7], np.s_[-1], np.s_[3:9, 11:12], np.s_[-5:, -3:],
          np.s_[10:4], np.s_[31:70:3, 1:2], np.s_[7:40, 13:90, 1], np.s_[1:2, 3:4, ::-1], np.s_[5, 7],
          np.s_[-1, 3, 2], np.s_[::16, 3:50], np.s_[::16, ::16, 1], np.s_[:, :], np.s_[::-1, :5]]
@@ -155,7 +155,7 @@ def test_frames_converted_where_they_are_read_give_the_pixels_of_the_whole_frame
                 frame.release()
                 assert np.array_equal(frame[key], whole[index][key]), key
             frame.release()
-            for key in READS:  # in a row, as a tracker reads (and the kept sparse reads serve later ones)
+            for key in READS:  # in a row, as a tracker reads (a frame converted whole serves the later ones)
                 assert np.array_equal(frame[key], whole[index][key]), key
             assert np.array_equal(np.asarray(frame), whole[index])
 
@@ -172,11 +172,18 @@ def test_frames_of_other_pixel_formats_are_converted_whole(tmp_path):
     assert np.hypot(table["x_px"] - centres[:, 0], table["y_px"] - centres[:, 1]).max() < CENTRE_TOLERANCE_PX
 
 
-def test_background_samples_are_the_frames_a_plain_decoding_gives(tmp_path):
+@pytest.mark.parametrize("irregular", [False, True], ids=["regular", "irregular-timing"])
+def test_background_samples_are_the_frames_a_plain_decoding_gives(tmp_path, irregular):
     """Key frames reached by seeking (decoded by a decoder of their own for H.264) are the very frames,
-    at the same times, that decoding the file in order gives, turned as the phone shows them."""
+    at the same times, that decoding the file in order gives, turned as the phone shows them. With
+    irregular timing the index's key frame times miss the frames' own, and some samples are frames
+    decoded after a later one (B-frames), which the decoder hands out only when drained."""
     frames, _ = ball_frames(60, step_px=(2.0, 0.0), gravity_px=0.035)
-    path = encode_clip(tmp_path / "keys.mp4", frames, gop=4, rotation_deg=270)
+    timing = {}
+    if irregular:
+        stamps = np.cumsum(np.random.default_rng(5).integers(2400, 3600, 60))
+        timing = {"pts": stamps - stamps[0], "time_base": Fraction(1, 90000)}
+    path = encode_clip(tmp_path / "keys.mp4", frames, gop=4, rotation_deg=270, **timing)
     with av.open(str(path)) as container:
         stream = container.streams.video[0]
         plain = {frame.pts * stream.time_base: np.rot90(frame.to_ndarray(format="bgr24"), k=-1)

@@ -12,7 +12,8 @@ from dropfit.synth import simulate_drop
 from dropfit.video.background import estimate_background
 from dropfit.video.detect import (QUALITY_BLURRED, QUALITY_DUPLICATE, QUALITY_LOST, QUALITY_OCCLUDED, QUALITY_OK,
                                   QUALITY_PARTIAL)
-from dropfit.video.track import TRACKED_CENTRE_CORRELATION, track_frames, track_video, usable_rows
+from dropfit.video.track import (OCCLUDED_FULL_SEARCH_STRIDE, TRACKED_CENTRE_CORRELATION, BallTracker, track_frames,
+                                 track_video, usable_rows)
 from dropfit.video_synth import Camera, FrameRenderer, Scene, default_clips
 from helpers import centre_errors, disc_coverage, rms
 
@@ -123,16 +124,13 @@ def test_ball_leaving_the_image_is_flagged():
     assert rms(errors) <= CLEAN_RMS_TOLERANCE_PX
 
 
-def test_hand_holding_the_ball_is_flagged_then_ignored(capsys):
-    """A dark hand reaching from the top overlaps the ball until frame 20; the ball drops at frame 10.
-
-    Decision: frames where the hand touches the ball are flagged ``occluded`` (approximate centre
-    from a circle fit to the free outline); once the hand is a separate blob, frames are ``ok`` and
-    unbiased by it. The ball leaves the image at the bottom at the end.
-    """
+def held_ball_frames(n, release, hand_until, radius=12.0, g=0.2):
+    """``n`` frames of a ball (radius px) that a dark hand reaching from the top holds still until frame
+    ``release``, then falls (g px/frame²); the hand stays until frame ``hand_until``. Returns the frames, the
+    true centres (n × 2, px), the frames where the ball's top is within 1 px of the hand, and those where the
+    ball is wholly in view."""
     rng = np.random.default_rng(4)
     background = textured_background(rng)
-    radius, n, release, hand_until, g = 12.0, 80, 10, 20, 0.2
     cx0, cy0, overlap = 160.3, 40.7, 4.0
     s = np.maximum(np.arange(n) - release + 0.5, 0.0)
     truth = np.column_stack([cx0 + 0.3 * s, cy0 + 0.5 * g * s * s])
@@ -140,12 +138,24 @@ def test_hand_holding_the_ball_is_flagged_then_ignored(capsys):
     hand = (np.abs(xx - cx0) <= 8) & (yy <= cy0 - radius + overlap)
     frames = [render(background, [tuple(truth[t])], radius, 220.0, rng, 2.0,
                      overlay=(hand, 60.0) if t <= hand_until else None) for t in range(n)]
+    touching = truth[:, 1] - radius < cy0 - radius + overlap + 1.0
+    touching[hand_until + 1:] = False
+    visible = truth[:, 1] + radius < SIZE[0] - 0.5 - 1.0
+    return frames, truth, touching, visible
+
+
+def test_hand_holding_the_ball_is_flagged_then_ignored(capsys):
+    """A dark hand reaching from the top overlaps the ball until frame 20; the ball drops at frame 10.
+
+    Decision: frames where the hand touches the ball are flagged ``occluded`` (approximate centre
+    from a circle fit to the free outline); once the hand is a separate blob, frames are ``ok`` and
+    unbiased by it. The ball leaves the image at the bottom at the end.
+    """
+    n, release, hand_until = 80, 10, 20
+    frames, truth, touching, visible = held_ball_frames(n, release, hand_until)
     table = track_frames(frames, np.arange(n) / 100.0)
     quality = table["quality"].to_numpy()
     errors = centre_errors(table, truth)
-    touching = truth[:, 1] - radius < cy0 - radius + overlap + 1.0  # ball top within 1 px of the hand
-    touching[hand_until + 1:] = False
-    visible = truth[:, 1] + radius < SIZE[0] - 0.5 - 1.0
     ok = quality == QUALITY_OK
     near_hand = ok & ~touching & (np.arange(n) <= hand_until)
     report(capsys, f"hand: held frames {quality[release - 1]}, held centre max error {errors[:release].max():.3f} px; "
@@ -157,6 +167,27 @@ def test_hand_holding_the_ball_is_flagged_then_ignored(capsys):
     assert ok[~touching & visible].all()
     assert errors[ok].max() <= HAND_BIAS_TOLERANCE_PX
     assert not ok[~visible].any()
+
+
+def test_a_ball_held_still_is_searched_for_in_few_frames(monkeypatch):
+    """Held still by the hand for 30 frames, the ball is searched for (over the whole frame) in every
+    ``OCCLUDED_FULL_SEARCH_STRIDE``-th of them only, not in each (30 searches before); the frames after its
+    release are measured as when it was searched for in every frame."""
+    n, release, hand_until = 100, 30, 34
+    frames, truth, touching, visible = held_ball_frames(n, release, hand_until)
+    searched = []
+    real_search = BallTracker._search
+    monkeypatch.setattr(BallTracker, "_search",
+                        lambda self, frame, near=None: searched.append(self._index) or real_search(self, frame, near))
+    table = track_frames(frames, np.arange(n) / 100.0)
+    quality = table["quality"].to_numpy()
+    held = np.flatnonzero(touching & (np.arange(n) < release))
+    assert len(held) >= 25 and (quality[held] == QUALITY_OCCLUDED).all()
+    # (the first frame, with nothing to predict from, and the first of the run are searched too)
+    assert len([index for index in searched if index in held]) <= len(held) // OCCLUDED_FULL_SEARCH_STRIDE + 2
+    ok = quality == QUALITY_OK
+    assert ok[~touching & visible].all()
+    assert centre_errors(table, truth)[ok].max() <= HAND_BIAS_TOLERANCE_PX
 
 
 def test_duplicated_frames_are_flagged():

@@ -82,6 +82,9 @@ _configure_library_logging()
 
 #: Codecs whose key frames for the background are decoded by a decoder of their own (:meth:`VideoFile._key_frames`).
 SEPARATE_KEY_FRAME_CODECS = ("h264", "hevc")
+#: Packets a decoder may take in after a frame's own before it hands the frame out (frames reordered into
+#: presentation order: H.264 and HEVC hold at most 16).
+REORDER_PACKETS = 16
 #: Decoded frames the decoding thread may hold ahead of the tracker: this many bytes of them, at least
 #: DECODE_AHEAD_FRAMES (a 1280 × 720 clip's 0.2-0.3 s of decoding, as long as reading its scene takes).
 DECODE_AHEAD_BYTES = 256 * 2**20
@@ -96,9 +99,6 @@ PROGRESS_INTERVAL_S = 0.25
 LAZY_FORMATS = ("yuv420p", "yuvj420p")
 #: A read of a :class:`LazyFrame` whose tile exceeds this fraction of the frame converts it whole.
 LAZY_WHOLE_FRACTION = 0.25
-#: Sparse reads a :class:`LazyFrame` keeps (its sparse rows are read again as the previous frame's, and
-#: hold the sparse grid the frame's gain is measured on).
-LAZY_READS_KEPT = 4
 #: Sizes of the tiles a :class:`LazyFrame` converts are multiples of this, px (a few dozen sizes per clip).
 TILE_ALIGN_PX = 32
 #: Bytes of the tiles (a frame, its buffers and converter, one per size) kept per thread, at most.
@@ -207,10 +207,9 @@ class LazyFrame:
     :func:`upright` applied to the whole frame: FFmpeg's converter maps each pixel from its own luma
     and the chroma of its 2 × 2 block, so a tile cut on even rows and columns of the (turned) planes
     converts as in the whole frame (a quarter turn keeps the blocks of a frame of even size), and
-    pixels picked singly are each doubled into a block of their own (such sparse reads are kept, and
-    are read-only). A tracker reads a few windows
-    about the ball, sparse rows and a sparse grid of a frame: a fraction of its pixels, at a
-    fraction of the cost of converting and turning all of them. A read whose tile would exceed
+    pixels picked singly are each doubled into a block of their own. A tracker reads a few windows
+    about the ball and a sparse grid of a frame: a fraction of its pixels, at a fraction of the cost
+    of converting and turning all of them. A read whose tile would exceed
     ``LAZY_WHOLE_FRACTION`` of the frame converts the whole frame instead, kept until :meth:`release`;
     ``numpy.asarray(frame)`` gives the whole frame. Only planar 8-bit 4:2:0 frames of even size
     (:func:`lazily_convertible`); read a frame from one thread at a time (FFmpeg's converter of a
@@ -238,15 +237,21 @@ class LazyFrame:
         self._frame, self._rotation_deg = frame, rotation_deg
         self._turns = rotation_deg // 90
         self._planes = [_plane_array(plane) for plane in frame.planes[:3]]
+        for plane in self._planes:
+            plane.flags.writeable = False  # read in place, and handed out (:attr:`luma`)
         height, width = self._planes[0].shape[::-1] if self._turns % 2 else self._planes[0].shape
         self.shape = (height, width, 3)
         self.nbytes = height * width * 3
         self._whole = None
-        self._reads = {}  # the last few sparse reads, by their key: a frame's sparse rows are read again
 
     def __array__(self, dtype=None, copy=None):
         image = self._whole.copy() if self._whole is not None else shown_image(self._frame, self._rotation_deg)
         return image if dtype is None else image.astype(dtype)
+
+    @property
+    def luma(self):
+        """The frame's luma plane as coded (not turned), uint8 (rows × columns), read-only, without conversion."""
+        return self._planes[0]
 
     def whole(self):
         """The whole frame, BGR uint8, converted once and kept until :meth:`release`."""
@@ -256,7 +261,7 @@ class LazyFrame:
 
     def release(self):
         """Drop what was converted (the frame stays readable)."""
-        self._whole, self._reads = None, {}
+        self._whole = None
 
     def __getitem__(self, key):
         key = key if isinstance(key, tuple) else (key,)
@@ -269,13 +274,6 @@ class LazyFrame:
             return np.array(source[key])
         if self._whole is not None or rows.tile_length() * columns.tile_length() > LAZY_WHOLE_FRACTION * height * width:
             return np.array(self.whole()[key])
-        sparse = rows.doubled or columns.doubled
-        if sparse:
-            memo = tuple((index.start, index.stop, index.step) if isinstance(index, slice) else index for index in key)
-            if (found := self._reads.get(memo)) is not None:
-                return found
-            if isinstance(spatial[0], slice) and (whole_rows := self._reads.get(memo[:1])) is not None:
-                return _read_only(whole_rows[(slice(None), spatial[1], *rest)])  # a grid within sparse rows read
         luma, blue, red = self._planes
         picked_luma = _gathered(luma, self._turns, rows.luma, columns.luma)
         picked_luma = np.repeat(picked_luma, 2, axis=0) if rows.doubled else picked_luma
@@ -284,18 +282,7 @@ class LazyFrame:
         image = _converted_tile(tile, self._frame)[rows.keep, columns.keep]
         image = image[:, 0] if columns.squeezed else image
         image = image[0] if rows.squeezed else image
-        image = image[(Ellipsis, *rest)] if rest else image
-        if not sparse:
-            return image
-        if len(self._reads) >= LAZY_READS_KEPT:
-            self._reads.clear()
-        self._reads[memo] = _read_only(image)
-        return image
-
-
-def _read_only(image):
-    image.flags.writeable = False
-    return image
+        return image[(Ellipsis, *rest)] if rest else image
 
 
 class _TileCache(threading.local):
@@ -405,6 +392,7 @@ class VideoFile:
                 raise unopenable
             self._stream = stream = self._container.streams.video[0]
             stream.thread_type = "AUTO"  # FFmpeg's own decoding threads (frames or slices)
+            stream.thread_count = _usable_cores()
             rate = stream.average_rate or stream.guessed_rate
             fps = Fraction(rate) if rate else None
             time_base = stream.time_base
@@ -491,13 +479,42 @@ class VideoFile:
         return samples
 
     def _key_frames(self, timestamps):
-        """The key frames at ``timestamps`` (presentation time stamps), each decoded alone by a decoder of
-        its own without frame threads, as (time s, BGR image) pairs; None when that decoder fails.
+        """The first frames at or after ``timestamps`` (presentation time stamps of key frames, as the index
+        gives them), each decoded from the key frame before it by a decoder of its own without frame threads,
+        as (time s, BGR image) pairs; None when that decoder fails or a frame is not found.
 
-        The clip's own decoder decodes with frame threads (:meth:`frames`): after a seek it must take in
-        a packet per thread before the first frame comes out, so it decodes several frames for each key
-        frame wanted (0.13 s against 0.08 s for 11 key frames of a 720p H.264 clip).
+        The clip's own decoder decodes with frame threads (:meth:`frames`): after a seek it must take in a
+        packet per thread before the first frame comes out, so it decodes several frames for each key frame
+        wanted (0.13 s against 0.08 s for 11 key frames of a 720p H.264 clip). Each frame's packets are read
+        first, to its own (:meth:`_packets_to`), and the decoder is drained after them: fed packets until the
+        frame came out, it decoded the frames it holds back for reordering too (0.066 → 0.049 s for the same 11).
         """
+        return self._decoded_alone([self._packets_to(wanted) for wanted in timestamps])
+
+    def _packets_to(self, wanted):
+        """The presentation time stamp of the first frame at or after ``wanted`` (one), and the packets that decode
+        it: from the key frame before it to its own. Frames come in presentation order out of a decoder, up to
+        ``REORDER_PACKETS`` packets after their own: the frame is the earliest of those packets; None, and the
+        packets read, when none is at or after ``wanted`` before the next key frame."""
+        self._container.seek(wanted, stream=self._stream, backward=True)
+        run, late = [], None
+        for packet in self._container.demux(self._stream):
+            if packet.size == 0 or (late is not None and (packet.is_keyframe or late == REORDER_PACKETS)):
+                break
+            run.append(packet)
+            if late is not None:
+                late += 1
+            elif packet.pts is not None and packet.pts >= wanted:
+                late = 0
+        target = min((packet.pts for packet in run if packet.pts is not None and packet.pts >= wanted), default=None)
+        if target is None:
+            return None, run
+        return target, run[:next(position for position, packet in enumerate(run) if packet.pts == target) + 1]
+
+    def _decoded_alone(self, runs):
+        """For each (time stamp, packets) of :meth:`_packets_to`, the frame at that presentation time stamp decoded
+        by a decoder of its own, as (time s, BGR image) pairs; None when the decoder fails or the frame is not
+        there."""
         source = self._stream.codec_context
         try:
             decoder = av.CodecContext.create(source.name, "r")
@@ -505,19 +522,21 @@ class VideoFile:
         except (av.FFmpegError, ValueError):
             return None
         samples = []
-        for wanted in timestamps:
-            self._container.seek(wanted, stream=self._stream, backward=True)
+        for target, packets in runs:
+            if target is None:
+                return None
             decoder.flush_buffers()
             frame = None
-            for packet in self._container.demux(self._stream):
+            for packet in [*packets, None]:  # None: the frames still held are drained at the end
                 try:
-                    frame = next((f for f in decoder.decode(packet) if f.pts is not None and f.pts >= wanted), None)
+                    frame = next((frame for frame in decoder.decode(packet) if frame.pts == target), None)
                 except av.FFmpegError:
                     return None
                 if frame is not None:
                     break
             if frame is None:
                 return None
+            frame.time_base = self._stream.time_base  # (a frame drained from a decoder has none)
             samples.append((self.time_s(frame), self.image(frame)))
         return samples
 
@@ -690,6 +709,17 @@ def _is_terminal(stream):
         return stream.isatty()
     except (AttributeError, ValueError):
         return False
+
+
+def _usable_cores():
+    """The CPU cores this process may run on: FFmpeg's decoding threads, one each. FFmpeg's own count (one more than
+    the cores) is made for a decoder that has the machine to itself; the tracker needs a share of it: on 2 cores the
+    portrait phone clip of ``benchmarks/tracking_speed.py`` was tracked at 0.94 of the decode-only rate with 3
+    threads, 1.02 with 2."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except AttributeError:  # not on Linux
+        return os.cpu_count() or 1
 
 
 def spread_indices(count, samples):

@@ -16,9 +16,10 @@ far from that disc (pieces of a hand), its positions are dropped from the predic
 ``duplicate``
     The frame is identical to the previous frame, as when a recorder repeats frames to fill a
     nominal rate: its time stamp does not belong to its content, so it is dropped from the
-    trajectory (NaN position). Identical means a mean absolute difference of sparse rows within
-    ``DUPLICATE_TOLERANCE_GREY`` (the sensor noise repeats) and no pixel of the whole frame
-    changing by more than the foreground threshold (nothing moved), while the ball was moving
+    trajectory (NaN position). Identical means a mean absolute difference of sparse rows (of the
+    luma plane as coded, for a 4:2:0 video) within ``DUPLICATE_TOLERANCE_GREY`` (the sensor noise
+    repeats) and no pixel of the whole frame changing by more than the foreground threshold
+    (nothing moved), while the ball was moving
     (more than ``STILL_BALL_STEP_PX`` a frame between its last two found centres): a ball at rest
     in a noise-free video gives identical frames that are true ones.
 
@@ -110,9 +111,10 @@ HAND_TOUCH_PX = 2.0
 WINDOW_MARGIN_PX = 6
 #: While the ball stays occluded where it is followed (held in a hand), a lone disc is looked for
 #: within LOCAL_SEARCH_RADII radii (at least LOCAL_SEARCH_MIN_PX) of it, where a ball leaving the hand
-#: is, and over the whole frame in the first frame of the run and every OCCLUDED_FULL_SEARCH_STRIDE-th:
-#: a ball held for a second cost a whole-frame search in each of its frames, most of a phone clip's
-#: tracking time.
+#: is, and over the whole frame in every OCCLUDED_FULL_SEARCH_STRIDE-th frame of the run: a ball held
+#: for a second cost a whole-frame search in each of its frames, most of a phone clip's tracking time.
+#: While it is held still (or rests against its shadow) only the whole-frame searches are made: a ball
+#: that leaves the hand moves, or is measured alone where it is followed.
 LOCAL_SEARCH_RADII = 8.0
 LOCAL_SEARCH_MIN_PX = 80
 OCCLUDED_FULL_SEARCH_STRIDE = 4
@@ -345,6 +347,16 @@ class BallTracker:
         steps = self._recent_steps_px()
         return bool(steps) and max(steps) <= STILL_RADII * radius_px
 
+    def _held_still(self, merged):
+        """Whether the ``merged`` blob measured in this frame is where it was (within ``STILL_RADII`` radii of the
+        last found centre) and was barely moving before (:meth:`_barely_moving`): a ball held in a hand, or at
+        rest against its shadow."""
+        radius = self.radius_ref_px or merged.radius_px
+        if not self._history or not self._barely_moving(radius):
+            return False
+        _, x, y = self._history[-1]
+        return math.hypot(merged.x_px - x, merged.y_px - y) <= STILL_RADII * radius
+
     def _another_object(self, merged, lone):
         """Whether the ``merged`` blob that was followed is another object than the ``lone`` ball a search found:
         more than ``JUMP_RADII`` radii from it, and it was not still. A ball held still in a hand is where it
@@ -365,8 +377,8 @@ class BallTracker:
         # 0.1-0.2 px (the benchmark clip's release frame was taken for a repeat)
         if predicted is not None and self._recent_step_px() <= STILL_BALL_STEP_PX:
             return False
-        rows = slice(None, None, DUPLICATE_STRIDE_PX)
-        if cv2.norm(frame[rows], previous[rows], cv2.NORM_L1) > DUPLICATE_TOLERANCE_GREY * frame[rows].size:
+        sample, previous_sample = _duplicate_samples(frame, previous)
+        if cv2.norm(sample, previous_sample, cv2.NORM_L1) > DUPLICATE_TOLERANCE_GREY * sample.size:
             return False
         # the sparse rows miss a small ball: nothing in the whole frame may have moved. Where the ball was
         # last seen decides at once in most frames (a codec that copies a static scene unchanged leaves the
@@ -425,11 +437,12 @@ class BallTracker:
                 result = self._measure_around(frame, (result.x_px, result.y_px), 2.0 * half_size, motion)
         occluded = result is not None and not result.truncated and result.quality == QUALITY_OCCLUDED
         self._occluded_run = self._occluded_run + 1 if occluded else 0
-        if result is None or result.truncated or occluded:
+        whole_search = not occluded or (self._occluded_run - 1) % OCCLUDED_FULL_SEARCH_STRIDE == 0
+        if result is None or result.truncated or (occluded and (whole_search or not self._held_still(result))):
             # lost, or merged with something (a hand that held the ball and moves away): a lone disc
             # elsewhere in the frame is the ball
             near = None
-            if occluded and (self._occluded_run - 1) % OCCLUDED_FULL_SEARCH_STRIDE:
+            if not whole_search:
                 reach = max(LOCAL_SEARCH_RADII * (self.radius_ref_px or result.radius_px), LOCAL_SEARCH_MIN_PX)
                 near = (result.x_px, result.y_px, reach)
             searched = self._search(frame, near)
@@ -466,6 +479,16 @@ class BallTracker:
             self._radius_spread = robust_sigma(radii, centre=self._radius_ref) if enough else 0.0
         return (result.x_px, result.y_px, result.radius_px, result.quality, result.centre_se_px, result.fit_rms_px,
                 result.blur_px)
+
+
+def _duplicate_samples(frame, previous):
+    """The sparse rows (every ``DUPLICATE_STRIDE_PX``-th) of two frames that the duplicate test compares first: of
+    their luma planes as coded where both are :class:`LazyFrame` objects (no conversion: a repeated frame repeats its
+    planes), else of their pixels."""
+    rows = slice(None, None, DUPLICATE_STRIDE_PX)
+    if isinstance(frame, LazyFrame) and isinstance(previous, LazyFrame):
+        return np.ascontiguousarray(frame.luma[rows]), np.ascontiguousarray(previous.luma[rows])
+    return frame[rows], previous[rows]
 
 
 def _found_or_raise(table, source):
