@@ -25,7 +25,7 @@ In one process, every pass runs each method below over the same file, each doing
 * ``dropfit``          — :func:`dropfit.video.track.track_video` with its defaults (no radius hint;
   it opens the file once, estimates the background from 11 key frames reached by seeking, and
   decodes every frame once in a second thread, which starts while the scene is read from those,
-  with one FFmpeg thread per core (the references keep FFmpeg's own count, one more, their fastest);
+  with one FFmpeg thread per core (the references keep FFmpeg's own count, one more: their fastest);
   a 4:2:0 frame is converted to BGR only where the tracker reads it,
   :class:`dropfit.video.decode.LazyFrame`).
 * ``cv2.HoughCircles`` — per frame: grey, ``medianBlur`` (5 px), ``HoughCircles`` (``HOUGH_GRADIENT``,

@@ -289,7 +289,7 @@ def real_data_dir(name):
 
 
 def encode_clip(path, frames, fps=30, codec="libx264", rotation_deg=None, pts=None, time_base=None, gop=None,
-                pix_fmt=None):
+                pix_fmt=None, x264_params=None):
     """Encode BGR uint8 ``frames`` with PyAV into ``path`` (container from the suffix); return ``path``.
 
     Parameters
@@ -306,6 +306,8 @@ def encode_clip(path, frames, fps=30, codec="libx264", rotation_deg=None, pts=No
         Frames between key frames.
     pix_fmt : str, optional
         The stored pixel format, instead of the codec's 4:2:0 one (``yuv444p`` for libx264).
+    x264_params : str, optional
+        libx264's own options (``open-gop=1:bframes=3``).
     """
     import av
 
@@ -317,7 +319,8 @@ def encode_clip(path, frames, fps=30, codec="libx264", rotation_deg=None, pts=No
     if gop:
         stream.codec_context.gop_size = gop
     if codec == "libx264":
-        stream.options = {"crf": "12"}  # small clips, little loss: the tracker's accuracy is tested elsewhere
+        # small clips, little loss: the tracker's accuracy is tested elsewhere
+        stream.options = {"crf": "12"} | ({"x264-params": x264_params} if x264_params else {})
     if time_base is not None:
         stream.codec_context.time_base = time_base
     if rotation_deg is not None:

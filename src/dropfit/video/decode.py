@@ -85,6 +85,9 @@ SEPARATE_KEY_FRAME_CODECS = ("h264", "hevc")
 #: Packets a decoder may take in after a frame's own before it hands the frame out (frames reordered into
 #: presentation order: H.264 and HEVC hold at most 16).
 REORDER_PACKETS = 16
+#: FFmpeg's decoding threads at most (its own limit on the number it chooses: more cost memory and the first frame's
+#: delay, a frame per thread).
+MAX_DECODING_THREADS = 16
 #: Decoded frames the decoding thread may hold ahead of the tracker: this many bytes of them, at least
 #: DECODE_AHEAD_FRAMES (a 1280 × 720 clip's 0.2-0.3 s of decoding, as long as reading its scene takes).
 DECODE_AHEAD_BYTES = 256 * 2**20
@@ -392,7 +395,7 @@ class VideoFile:
                 raise unopenable
             self._stream = stream = self._container.streams.video[0]
             stream.thread_type = "AUTO"  # FFmpeg's own decoding threads (frames or slices)
-            stream.thread_count = _usable_cores()
+            stream.thread_count = min(_usable_cores(), MAX_DECODING_THREADS)
             rate = stream.average_rate or stream.guessed_rate
             fps = Fraction(rate) if rate else None
             time_base = stream.time_base
@@ -452,6 +455,7 @@ class VideoFile:
         worst the whole clip once). A container without an index (a damaged file) is decoded
         once to the end, keeping frames at a doubling stride.
         """
+        self._rewind()  # a seek reads an index kept at the file's end (Matroska's cues): until then it holds one entry
         entries = sorted(self._stream.index_entries, key=lambda entry: entry.timestamp)
         if not entries or self._first.pts is None:
             return self._samples_by_stride(count)
@@ -479,9 +483,10 @@ class VideoFile:
         return samples
 
     def _key_frames(self, timestamps):
-        """The first frames at or after ``timestamps`` (presentation time stamps of key frames, as the index
-        gives them), each decoded from the key frame before it by a decoder of its own without frame threads,
-        as (time s, BGR image) pairs; None when that decoder fails or a frame is not found.
+        """The first frames at or after ``timestamps`` (presentation time stamps; the index's times of key frames,
+        which miss theirs by the reordering delay), each decoded from the key frame before it by a decoder of its
+        own without frame threads, as (time s, BGR image) pairs; None when that decoder fails or a frame is not
+        found.
 
         The clip's own decoder decodes with frame threads (:meth:`frames`): after a seek it must take in a
         packet per thread before the first frame comes out, so it decodes several frames for each key frame
@@ -492,10 +497,12 @@ class VideoFile:
         return self._decoded_alone([self._packets_to(wanted) for wanted in timestamps])
 
     def _packets_to(self, wanted):
-        """The presentation time stamp of the first frame at or after ``wanted`` (one), and the packets that decode
-        it: from the key frame before it to its own. Frames come in presentation order out of a decoder, up to
-        ``REORDER_PACKETS`` packets after their own: the frame is the earliest of those packets; None, and the
-        packets read, when none is at or after ``wanted`` before the next key frame."""
+        """The presentation time stamp of the first frame at or after ``wanted`` (one) that decodes from the key
+        frame a seek to ``wanted`` reaches, and the packets that decode it: from that key frame to the frame's
+        own. Frames come in presentation order out of a decoder, up to ``REORDER_PACKETS`` packets after their
+        own: the frame is the earliest of those packets, and not before the key frame (an open group of
+        pictures starts with frames that refer to the group before it, which a decoder drops); None, and the
+        packets read, when no packet is at or after ``wanted`` (the end of the clip)."""
         self._container.seek(wanted, stream=self._stream, backward=True)
         run, late = [], None
         for packet in self._container.demux(self._stream):
@@ -506,7 +513,9 @@ class VideoFile:
                 late += 1
             elif packet.pts is not None and packet.pts >= wanted:
                 late = 0
-        target = min((packet.pts for packet in run if packet.pts is not None and packet.pts >= wanted), default=None)
+        start = run[0].pts if run and run[0].is_keyframe and run[0].pts is not None else wanted
+        target = min((packet.pts for packet in run if packet.pts is not None and packet.pts >= max(wanted, start)),
+                     default=None)
         if target is None:
             return None, run
         return target, run[:next(position for position, packet in enumerate(run) if packet.pts == target) + 1]
@@ -712,10 +721,10 @@ def _is_terminal(stream):
 
 
 def _usable_cores():
-    """The CPU cores this process may run on: FFmpeg's decoding threads, one each. FFmpeg's own count (one more than
-    the cores) is made for a decoder that has the machine to itself; the tracker needs a share of it: on 2 cores the
-    portrait phone clip of ``benchmarks/tracking_speed.py`` was tracked at 0.94 of the decode-only rate with 3
-    threads, 1.02 with 2."""
+    """The CPU cores this process may run on: FFmpeg's decoding threads, one each (at most
+    ``MAX_DECODING_THREADS``). FFmpeg's own count (one more than the cores, at most 16) is made for a decoder that has
+    the machine to itself; the tracker needs a share of it: on 2 cores the portrait phone clip of
+    ``benchmarks/tracking_speed.py`` was tracked at 0.94 of the decode-only rate with 3 threads, 1.02 with 2."""
     try:
         return len(os.sched_getaffinity(0))
     except AttributeError:  # not on Linux
