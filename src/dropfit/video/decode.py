@@ -395,7 +395,7 @@ class VideoFile:
                 raise unopenable
             self._stream = stream = self._container.streams.video[0]
             stream.thread_type = "AUTO"  # FFmpeg's own decoding threads (frames or slices)
-            stream.thread_count = min(_usable_cores(), MAX_DECODING_THREADS)
+            stream.thread_count = _decoding_threads()
             rate = stream.average_rate or stream.guessed_rate
             fps = Fraction(rate) if rate else None
             time_base = stream.time_base
@@ -720,15 +720,16 @@ def _is_terminal(stream):
         return False
 
 
-def _usable_cores():
-    """The CPU cores this process may run on: FFmpeg's decoding threads, one each (at most
-    ``MAX_DECODING_THREADS``). FFmpeg's own count (one more than the cores, at most 16) is made for a decoder that has
+def _decoding_threads():
+    """FFmpeg's decoding threads for a clip: one per CPU core this process may run on, at most
+    ``MAX_DECODING_THREADS``. FFmpeg's own count (one more than the cores, at most 16) is made for a decoder that has
     the machine to itself; the tracker needs a share of it: on 2 cores the portrait phone clip of
     ``benchmarks/tracking_speed.py`` was tracked at 0.94 of the decode-only rate with 3 threads, 1.02 with 2."""
     try:
-        return len(os.sched_getaffinity(0))
+        cores = len(os.sched_getaffinity(0))
     except AttributeError:  # not on Linux
-        return os.cpu_count() or 1
+        cores = os.cpu_count() or 1
+    return min(cores, MAX_DECODING_THREADS)
 
 
 def spread_indices(count, samples):

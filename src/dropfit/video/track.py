@@ -111,8 +111,9 @@ HAND_TOUCH_PX = 2.0
 WINDOW_MARGIN_PX = 6
 #: While the ball stays occluded where it is followed (held in a hand), a lone disc is looked for
 #: within LOCAL_SEARCH_RADII radii (at least LOCAL_SEARCH_MIN_PX) of it, where a ball leaving the hand
-#: is, and over the whole frame in every OCCLUDED_FULL_SEARCH_STRIDE-th frame of the run: a ball held
-#: for a second cost a whole-frame search in each of its frames, most of a phone clip's tracking time.
+#: is, and over the whole frame in the first frame of the run and every OCCLUDED_FULL_SEARCH_STRIDE-th
+#: after it: a ball held for a second cost a whole-frame search in each of its frames, most of a phone
+#: clip's tracking time.
 #: While it is held still (or rests against its shadow) only the whole-frame searches are made: a ball
 #: that leaves the hand moves, or is measured alone where it is followed.
 LOCAL_SEARCH_RADII = 8.0
