@@ -207,6 +207,25 @@ def test_background_samples_are_the_frames_a_plain_decoding_gives(tmp_path, monk
         assert np.array_equal(image, expected), time_s
 
 
+def test_an_avi_whose_index_is_cut_off_gives_samples_over_the_whole_clip(tmp_path):
+    """An AVI whose index (written last) was cut off: the demuxer knows one frame of it. The samples are
+    frames spread over the clip (before: that one frame, a background with the ball in it), and the ball
+    is tracked."""
+    frames, centres = ball_frames(60, step_px=(2.0, 0.0), gravity_px=0.035)
+    whole = encode_clip(tmp_path / "whole.avi", frames, codec="mjpeg").read_bytes()
+    path = tmp_path / "cut.avi"
+    path.write_bytes(whole[:whole.rfind(b"idx1")])
+    with av.open(str(path)) as container:
+        plain = [frame.to_ndarray(format="bgr24") for frame in container.decode(video=0)]
+    with VideoFile(path) as video:
+        samples = video.samples(11)
+    assert len(samples) >= 11 and max(time_s for time_s, _ in samples) >= 1.5
+    for time_s, image in samples:
+        assert np.array_equal(image, plain[round(time_s * 30)]), time_s
+    table = track_video(path)
+    assert np.hypot(table["x_px"] - centres[:, 0], table["y_px"] - centres[:, 1]).max() < CENTRE_TOLERANCE_PX
+
+
 def test_ball_in_the_background_is_tracked_again_from_memory(tmp_path, monkeypatch):
     """A ball in view and nearly still all clip long is in the first background; the further passes
     use frames kept whole, never the file; past the memory budget, crops about the ball serve the

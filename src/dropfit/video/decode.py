@@ -452,12 +452,13 @@ class VideoFile:
         the spread key frames (one frame decoded each; every frame of an intra-only codec such as
         MJPEG is one); with fewer (long groups of pictures), frames spread over the index,
         decoded forward from the key frame before each and in one sweep where they share it (at
-        worst the whole clip once). A container without an index (a damaged file) is decoded
-        once to the end, keeping frames at a doubling stride.
+        worst the whole clip once). A container whose index holds fewer than ``count`` frames (none,
+        or only those read so far: an AVI whose index was cut off, a short clip) is decoded once to
+        the end, keeping frames at a doubling stride.
         """
         self._rewind()  # a seek reads an index kept at the file's end (Matroska's cues): until then it holds one entry
         entries = sorted(self._stream.index_entries, key=lambda entry: entry.timestamp)
-        if not entries or self._first.pts is None:
+        if len(entries) < count or self._first.pts is None:
             return self._samples_by_stride(count)
         keys = [position for position, entry in enumerate(entries) if entry.is_keyframe]
         targets = ([keys[i] for i in spread_indices(len(keys), count)] if len(keys) >= count
@@ -550,7 +551,7 @@ class VideoFile:
         return samples
 
     def _samples_by_stride(self, count):
-        self._rewind()
+        # from the start, where samples() has sought
         kept, stride = [], 1
         for index, frame in enumerate(self._decoded()):
             if index % stride == 0:
