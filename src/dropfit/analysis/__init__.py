@@ -7,7 +7,7 @@ covariance, and :mod:`.bounces` runs the steps with their defaults (:func:`analy
 
 from .bounces import NOMINAL_DRAG_RELATIVE_SE, BounceAnalysis, analyse_bounces
 from .flights import MIN_SAMPLES_PER_FLIGHT, SharedAcceleration, shared_acceleration, shared_acceleration_with_drag
-from .segmentation import Segmentation, estimate_noise, find_impacts, segment, vertical_sign
+from .segmentation import Segmentation, estimate_noise, find_impacts, segment, up_direction, vertical_sign
 from .tables import se_column_name
 
 __all__ = [
@@ -20,6 +20,7 @@ __all__ = [
     "estimate_noise",
     "find_impacts",
     "segment",
+    "up_direction",
     "vertical_sign",
     "se_column_name",
     "shared_acceleration",

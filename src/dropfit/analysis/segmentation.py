@@ -17,6 +17,7 @@ measured from the bounces' own curvature (a px log before its calibration).
 
 from __future__ import annotations
 
+import math
 import warnings
 from dataclasses import dataclass, field
 
@@ -470,6 +471,81 @@ def vertical_sign(time_s, height):
         if large.size and large.sum() != 0:
             return float(np.sign(large.sum()))
     return -1.0 if y[0] < np.median(y) else 1.0
+
+
+def up_direction(time_s, x, y):
+    """The direction opposite the flights' acceleration in the plane of ``x`` and ``y`` (one length unit),
+    as an angle in rad counter-clockwise from the +x axis, and its standard error in rad.
+
+    As in :func:`vertical_sign`, the second differences (over about 10 ms, between samples equally spaced
+    in time) of the samples that move are mostly the flights' own, g times the step squared: their
+    component-wise median points along g, undisturbed by the few impacts and tracking jumps. The standard
+    error is that of the medians across the direction, over their length; π where no direction shows.
+    """
+    x, y, time_s = (np.asarray(values, float) for values in (x, y, time_s))
+    valid = np.isfinite(x) & np.isfinite(y) & np.isfinite(time_s)
+    t, x, y = time_s[valid], x[valid], y[valid]
+    if t.size < 5:
+        return math.pi / 2, math.pi
+    lag = max(1, int(round(0.01 / float(np.median(np.diff(t))))))
+    if t.size <= 2 * lag + 2:
+        return math.pi / 2, math.pi
+    first, second = t[lag:-lag] - t[: -2 * lag], t[2 * lag:] - t[lag:-lag]
+    even = np.abs(first - second) <= 1e-3 * np.maximum(first, second)  # a skipped frame bends the differences
+    ax = (x[2 * lag:] - 2 * x[lag:-lag] + x[: -2 * lag])[even]
+    ay = (y[2 * lag:] - 2 * y[lag:-lag] + y[: -2 * lag])[even]
+    moved = np.hypot(x[2 * lag:] - x[: -2 * lag], y[2 * lag:] - y[: -2 * lag])[even]
+    if ax.size < 3:
+        return math.pi / 2, math.pi
+    floor = 1e-12 * max(float(np.ptp(x)), float(np.ptp(y)), 1e-300)
+    moving = moved > 5 * max(float(np.hypot(robust_sigma(ax), robust_sigma(ay))), floor)
+    if np.count_nonzero(moving) >= 3:
+        ax, ay = ax[moving], ay[moving]
+    centre = np.array([np.median(ax), np.median(ay)])
+    length = float(np.hypot(*centre))
+    if length == 0:
+        return math.pi / 2, math.pi
+    spread = max(robust_sigma(ax, centre=centre[0]), robust_sigma(ay, centre=centre[1]), floor)
+    se = MEDIAN_SE_FACTOR * spread / math.sqrt(ax.size) / length
+    refined = _flights_acceleration(t, x, y, lag, centre, spread)
+    if refined is not None and refined[1] < se:
+        (acceleration_x, acceleration_y), se = refined
+        return float(math.atan2(-acceleration_y, -acceleration_x)), float(min(se, math.pi))
+    return float(math.atan2(-centre[1], -centre[0])), float(min(se, math.pi))
+
+
+def _flights_acceleration(t, x, y, lag, centre, spread):
+    """The flights' acceleration (x, y) in length unit per step² of ``lag`` samples and the standard error of
+    its direction (rad), from a parabola in x and one in y fitted to each run of samples whose second
+    differences all lie within 5 ``spread`` of the median ``centre`` (a flight clear of impacts); None with
+    no run of 5 samples. Far more precise than the median of the differences alone."""
+    n = t.size
+    ax = x[2 * lag:] - 2 * x[lag:-lag] + x[: -2 * lag]
+    ay = y[2 * lag:] - 2 * y[lag:-lag] + y[: -2 * lag]
+    inside = np.hypot(ax - centre[0], ay - centre[1]) <= 5 * spread
+    bad = np.zeros(n, bool)
+    for offset in range(3):
+        bad[offset * lag: n - (2 - offset) * lag] |= ~inside
+    flight = ~bad  # a sample is in a flight while every triple through it is
+    edges = np.flatnonzero(np.diff(np.concatenate([[0], flight.astype(int), [0]])))
+    step = float(np.median(np.diff(t))) * lag
+    values, weights = [], []
+    for start, stop in zip(edges[::2], edges[1::2]):
+        if stop - start < 5:
+            continue
+        tau = (t[start:stop] - t[start]) / step
+        fits = [np.polyfit(tau, values_[start:stop], 2, cov=True) for values_ in (x, y)]
+        values.append([2 * fit[0][0] for fit in fits])
+        weights.append([1 / max(4 * fit[1][0, 0], 1e-300) for fit in fits])
+    if not values:
+        return None
+    values, weights = np.array(values), np.array(weights)
+    mean = (values * weights).sum(axis=0) / weights.sum(axis=0)
+    length = float(np.hypot(*mean))
+    if len(values) < 2 or length == 0:
+        return None
+    se = float(np.hypot(*(1 / np.sqrt(weights.sum(axis=0))))) / length
+    return mean, se
 
 
 def last_flight_end(y, after, noise):

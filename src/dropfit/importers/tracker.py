@@ -8,7 +8,9 @@ A ``.trk`` file is the XML of Tracker's ``XMLControl``: ``<object class="…">``
 - the coordinate system (``…ImageCoordSystem``): per key frame the image position of the world
   origin (``xorigin``, ``yorigin``, px), the angle of the world x axis counter-clockwise from the
   image x axis (``angle``, degrees) and the scale (``xscale``, ``yscale``, px per world unit); a frame
-  without an entry keeps the last key frame's values. The world y axis points up;
+  without an entry keeps the last key frame's values. The world y axis is 90° counter-clockwise from its x
+  axis: up at angle 0, down near ±180° (a common set-up: y down from the release). The height is along the
+  flights' up (:func:`upright`), whichever way the user turned the axes;
 - the clip's timing: the video clip's ``startframe`` and ``starttime`` (ms) and the clip control's
   ``delta_t`` (ms per frame): frame n is at ``starttime + (n − startframe) · delta_t``;
 - the panel's ``length_unit`` (the world unit, m by default).
@@ -208,11 +210,13 @@ def read_project(path, raw, options):
         raise InputError(f"{name}: the Tracker project's length unit '{shown(project.length_unit)}' is not one dropfit "
                          f"reads (m, cm, mm, in, ft); set it to m in Tracker")
     if calibrated:
-        x, y = project.world(mass)
+        x, y, up_deg, vertical = upright(time, *project.world(mass))
         calibration = {"px_per_unit": float(np.median(y_scale)), "angle_deg": float(np.degrees(np.median(angle))),
                        "origin_px": f"{project.frame_coords(mass.frames[:1])[0][0]:.3f},"
-                                    f"{project.frame_coords(mass.frames[:1])[1][0]:.3f}"}
-        what = f"Tracker's calibration ({np.median(y_scale):.6g} px/{unit}, axes at {np.degrees(np.median(angle)):.3g}°)"
+                                    f"{project.frame_coords(mass.frames[:1])[1][0]:.3f}",
+                       "up_deg": up_deg}
+        what = f"Tracker's calibration ({np.median(y_scale):.6g} px/{unit}, axes at {np.degrees(np.median(angle)):.3g}°" \
+               f"{vertical})"
     else:
         x, y, unit, calibration, what = mass.x_px, mass.y_px, "px", {}, "image px (no calibration in the project)"
     mapping = describe(path, [f"point mass '{mass.name}' ({mass.frames.size} marks)", what,
@@ -220,6 +224,45 @@ def read_project(path, raw, options):
     track = ImportedTrack(time, y, unit, "tracker", mapping, x, 1.0 / project.frame_interval_s,
                           {f"tracker_{key}": value for key, value in calibration.items()})
     return track
+
+
+#: A world axis within this many degrees of the flights' up (:func:`dropfit.analysis.up_direction`), or within
+#: three of its standard errors, is the vertical: the user's axes, exactly; farther, the flights' own up is (axes
+#: turned by hand to −179.6° are 0.4° off: 0.3 % on the late heights of a ball drifting 5 cm/s).
+AXIS_SNAP_DEG = 0.1
+
+
+def upright(time_s, x, y):
+    """World positions (``x``, ``y`` in the world unit, in Tracker's axes) turned so that height points up.
+
+    Tracker's world y axis is wherever the user turned it: up (angle 0), down (about ±180°, y down with
+    the origin at the release, a common set-up), sideways (±90°), or along a tilted camera's vertical. The
+    flights fall along g, so the up of their curvature (:func:`dropfit.analysis.up_direction`) names the
+    vertical: the world axis nearest to it when within :data:`AXIS_SNAP_DEG` (or three standard errors),
+    else that direction itself. x is the horizontal, turned with it (a rotation: no mirror).
+
+    Returns
+    -------
+    (numpy.ndarray, numpy.ndarray, float, str)
+        Horizontal and height in the world unit, the up direction in degrees counter-clockwise from the world
+        x axis, and words for the mapping ("" for the world y axis as it is).
+    """
+    from ..analysis import up_direction
+
+    found, found_se = up_direction(time_s, x, y)
+    axes = np.radians([90.0, -90.0, 0.0, 180.0])  # +y, −y, +x, −x as up
+    off = np.abs(np.angle(np.exp(1j * (axes - found))))
+    nearest = int(np.argmin(off))
+    if off[nearest] <= max(np.radians(AXIS_SNAP_DEG), 3 * found_se):
+        up = float(axes[nearest])
+        words = ["", "; its y axis points down: heights are −y", "; its x axis points up: heights are x",
+                 "; its x axis points down: heights are −x"][nearest]
+    else:
+        up = found
+        words = (f"; the flights fall {np.degrees(abs(np.angle(np.exp(1j * (found - np.pi / 2))))):.1f}° from its y "
+                 f"axis: heights along their vertical ({np.degrees(found):.1f}° from its x axis)")
+    cos, sin = np.cos(up), np.sin(up)
+    return sin * x - cos * y, cos * x + sin * y, float(np.degrees(up)), words
 
 
 def _timing_words(delta_t_s, fps):
