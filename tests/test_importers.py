@@ -427,6 +427,35 @@ def test_mtrack2_picks_the_ball_and_times_frames(separator, tmp_path):
     assert np.all(still.y == 30.5) and still.time_s.size == frames.size
 
 
+@pytest.mark.parametrize("spaces", [" ", "   "])
+def test_mtrack2_with_spaces_tracks_line_and_star_flags(spaces, tmp_path):
+    """MTrack2's table saved with spaces between the fields, its 'Tracks 1 to 2' line, and a Flag written only
+    where MTrack2 flags ('*'): runs of spaces hide the blank flags, so rows have 4 to 6 fields under a header of
+    7 (it was 'no table of numbers under a header found', or 'not a number ... ('*')'). The positions and the
+    times are the fixture's, the flags counted in a note, and e comes back."""
+    frames = np.arange(1, 101)
+    _, column, row = ball_in_image(frames)
+    lines = ["Tracks 1 to 2", spaces.join(["Frame", "X1", "Y1", "Flag1", "X2", "Y2", "Flag2"])]
+    flagged = frames % 7 == 0  # the ball's flags
+    for i, frame in enumerate(frames):
+        cells = [str(frame), "12.0", "30.5", "*" if i % 9 == 0 else " ", f"{column[i]:.3f}", f"{row[i]:.3f}",
+                 "*" if flagged[i] else " "]
+        lines.append(spaces.join(cells).rstrip())
+    path = tmp_path / "Results.txt"
+    path.write_text("\n".join(lines) + "\n")
+    track = read_track(path, ImportOptions(fps=FPS))
+    assert track.source_format == "mtrack2" and "track 2" in track.mapping
+    np.testing.assert_allclose(track.time_s, (frames - 1) / FPS, atol=1e-12)
+    np.testing.assert_allclose(track.y, row, atol=6e-4)
+    np.testing.assert_allclose(track.x, column, atol=6e-4)
+    assert f"{np.count_nonzero(flagged)} positions of track 2 flagged '*'" in "; ".join(track.notes)
+    assert analyse_recording(path, fps=FPS).fit["restitution"]["e"]["value"] == pytest.approx(E_TRUE, abs=E_TOL)
+    path.write_text("\n".join(lines[:5] + ["5 12.0 * 30.5 100.0"]) + "\n")
+    with pytest.raises(InputError, match=r"Results.txt: MTrack2 row 4 \('5 12.0 \* 30.5 100.0'\) cannot be split into "
+                                         r"X, Y and flag of each object"):
+        read_track(path, ImportOptions(fps=FPS))
+
+
 def test_mtrack2_header_ending_in_a_separator(tmp_path):
     """MTrack2 may end its header with a tab the rows do not have: the empty column past the data is no column
     (it was 'no table of numbers under a header found')."""

@@ -1,8 +1,10 @@
 """ImageJ / Fiji tracking tables: MTrack2 and TrackMate spot tables.
 
 MTrack2 writes one row per frame and three columns per tracked object: ``Frame X1 Y1 Flag1 X2 Y2
-Flag2 …`` (tab, comma or space separated), after a line ``Tracks 1 to N`` (or with it as the first
-data row), and ends with a summary block ``Track  Length  Distance traveled  Nr of Frames``. The
+Flag2 …`` (tab separated, or saved again with commas, semicolons or spaces), after a line ``Tracks 1
+to N`` (or with it as the first data row), and ends with a summary block ``Track  Length  Distance
+traveled  Nr of Frames``. A flag is ``*`` where MTrack2 flagged the object (objects met), blank
+elsewhere: with spaces between the fields blank flags vanish (:func:`_spaced_table`). The
 positions are image px, y growing down; a frame in which an object was not found leaves its cells
 blank (or, at the end of a row, absent). Its "Raw Tracks" window saved from ImageJ has no Frame
 column (``X1 Y1 Flag1 …``, after the row numbers or without them) and one row per frame: the row
@@ -28,7 +30,7 @@ import numpy as np
 from ..errors import InputError, shown, shown_path
 from .base import LENGTH_UNITS_M, TIME_UNITS_S, ImportedTrack, frame_times, pick_track, \
     unique_frames
-from .table import describe, normal_unit, read_table
+from .table import Table, describe, normal_unit, read_table
 
 _TRACKS_LINE = re.compile(r"^\s*tracks\s+\d+\s+to\s+\d+\s*$", re.IGNORECASE)
 _SUMMARY_LINE = re.compile(r"^\s*track\s*[\t,; ]+\s*length\b", re.IGNORECASE)
@@ -72,7 +74,7 @@ def read_mtrack2(path, lines, options):
             break  # the per-track summary: not positions
         if not _TRACKS_LINE.match(re.sub(r'[\t,;"]', " ", line)):  # alone, or in the first row's Frame cell
             body.append(line)
-    table = read_table(path, body)
+    table = _spaced_table(path, body) or read_table(path, body)
     header = [field.strip().upper() for field in table.header]
     if "FRAME" in header:
         frames, what = table.numbers(header.index("FRAME"), "Frame"), "MTrack2"
@@ -95,7 +97,69 @@ def read_mtrack2(path, lines, options):
         raise InputError(f"{name}: the MTrack2 table has no track with positions (columns X1, Y1, …); check the export")
     number = pick_track(path, tracks, options.track_id, "track")
     chosen = "given" if options.track_id is not None else f"the most ball-like of {len(tracks)}"
-    return _finish(path, "mtrack2", *tracks[number], options, [f"{what} track {number} ({chosen}) [px, y down]"])
+    track = _finish(path, "mtrack2", *tracks[number], options, [f"{what} track {number} ({chosen}) [px, y down]"])
+    if f"FLAG{number}" in header:
+        flags = [row[header.index(f"FLAG{number}")].strip().strip('"') if header.index(f"FLAG{number}") < len(row)
+                 else "" for row in table.rows]
+        flagged = sum(flag == "*" for flag in flags)
+        if flagged:
+            track.notes.append(f"{flagged} position{'s' if flagged > 1 else ''} of track {number} flagged '*' by "
+                               f"MTrack2 (objects met) kept: the analysis leaves out those off the ballistic track")
+    return track
+
+
+def _is_flag(text):
+    """Whether a cell of an MTrack2 Flag column: ``*``, empty, or a 0/1 digit."""
+    return text in ("", "*", "0", "1") or not _is_float(text)
+
+
+def _is_float(text):
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+def _spaced_table(path, body):
+    """An MTrack2 table whose fields are separated by spaces, as a :class:`~.table.Table` with one cell per
+    header field; None for a table with tabs, commas or semicolons (:func:`~.table.read_table` reads those).
+
+    Runs of spaces hide empty cells: a Flag left blank (MTrack2 writes ``*`` only where it flags) and the
+    cells of objects past the row's end are absent. A row with three fields per object (after the Frame)
+    is read as it is; else each object is its X and Y, and a ``*`` after them is its flag. A row whose
+    objects cannot be told apart so (an object lost in mid-row) is refused.
+    """
+    lines = [line for line in body if line.strip()]
+    if not lines or any(separator in lines[0] for separator in ("\t", ",", ";")):
+        return None
+    header = lines[0].split()
+    names = [field.upper() for field in header]
+    start = 1 if names[:1] == ["FRAME"] else 0
+    groups = (len(names) - start) // 3
+    if groups == 0 or [f"{axis}{k}" for k in range(1, groups + 1) for axis in ("X", "Y", "FLAG")] != names[start:]:
+        return None
+    rows = []
+    for number, line in enumerate(lines[1:], 1):
+        tokens = line.split()
+        cells, rest = tokens[:start], tokens[start:]
+        if len(rest) % 3 == 0 and all(_is_flag(flag) for flag in rest[2::3]) and \
+                all(_is_float(value) for i, value in enumerate(rest) if i % 3 != 2):
+            cells += rest
+        else:
+            while rest:
+                if len(rest) < 2 or not (_is_float(rest[0]) and _is_float(rest[1])):
+                    raise InputError(f"{shown_path(path)}: MTrack2 row {number} ('{shown(line, 40)}') cannot be split "
+                                     f"into X, Y and flag of each object with spaces between them; save the table "
+                                     f"with tabs (MTrack2's own format)")
+                flag = rest[2] if len(rest) > 2 and not _is_float(rest[2]) else ""
+                cells += [rest[0], rest[1], flag]
+                rest = rest[3 if flag else 2:]
+        if len(cells) > len(header):
+            raise InputError(f"{shown_path(path)}: MTrack2 row {number} has {len(cells) - start} cells for "
+                             f"{groups} objects; check the table")
+        rows.append(cells + [""] * (len(header) - len(cells)))
+    return Table(str(path), header, rows, " ")
 
 
 def read_trackmate(path, lines, options):
