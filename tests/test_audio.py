@@ -359,6 +359,57 @@ def test_phyphox_zipped_collision_export(tmp_path, truth):
     assert result.impacts["e"].iloc[1:-1].to_numpy() == pytest.approx(truth.impacts["e"].iloc[1:5], abs=0.01)
 
 
+#: A bounce sequence of the closed form: the first flight (after the first impact) and constant e; flight times
+#: shrink by e at each impact, T_{n+1} = e T_n (no drag). Timing jitter as a phone's stopwatch has it, s.
+STOPWATCH_E, STOPWATCH_FIRST_FLIGHT_S, STOPWATCH_JITTER_S = 0.85, 0.54, 3e-4
+
+
+def stopwatch_times(count=11, seed=3, e=STOPWATCH_E):
+    """Event times (s) of ``count`` impacts of the closed-form sequence, the first at 1.234 s, with Gaussian
+    timing jitter (seeded)."""
+    flights = STOPWATCH_FIRST_FLIGHT_S * e ** np.arange(count - 1)
+    times = 1.234 + np.concatenate([[0.0], np.cumsum(flights)])
+    return times + np.random.default_rng(seed).normal(0.0, STOPWATCH_JITTER_S, count)
+
+
+def write_stopwatch_csv(path, times, separator=",", decimal_point="."):
+    """phyphox's Acoustic Stopwatch export as CSV: the quoted names "Event time (s)", "Interval (s)" (the time
+    since the event before, 0 for the first), numbers as phyphox writes them."""
+    from helpers import phyphox_number
+
+    intervals = np.concatenate([[0.0], np.diff(times)])
+    lines = [separator.join(['"Event time (s)"', '"Interval (s)"'])]
+    lines += [separator.join(phyphox_number(value, decimal_point) for value in row) for row in zip(times, intervals)]
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    return path
+
+
+@pytest.mark.parametrize("separator, decimal_point", [(",", "."), (";", ","), ("\t", ".")])
+def test_phyphox_acoustic_stopwatch_export_is_read_as_impact_times(tmp_path, separator, decimal_point):
+    """phyphox's Acoustic Stopwatch export ("Event time (s)", "Interval (s)") is told from a height log by its
+    header and read as impact times with no option (it was read as a height log and refused with the advice
+    --columns time=COL[s],y=COL[m]); e of the flight-time ratios holds the closed form's e in its interval."""
+    times = stopwatch_times()
+    path = write_stopwatch_csv(tmp_path / "Acoustic Stopwatch.csv", times, separator, decimal_point)
+    read, se, kind = read_impact_table(path)
+    assert kind == "phyphox stopwatch" and read == pytest.approx(times, abs=1e-8) and np.isnan(se).all()
+    result = analyse_recording(path)
+    assert result.trajectory.attrs["recording_kind"] == "impact_times"
+    e = result.fit["restitution"]["e"]
+    assert e["ci95"][0] <= STOPWATCH_E <= e["ci95"][1] and e["ci95"][1] - e["ci95"][0] < 0.02
+
+
+def test_phyphox_acoustic_stopwatch_zip_export(tmp_path):
+    """phyphox's default (zipped) export of the Acoustic Stopwatch: its set with "Event time (s)" is the table."""
+    times = stopwatch_times()
+    export = write_phyphox_export(tmp_path / "Acoustic Stopwatch.zip",
+                                  {"Events": {"Event time (s)": times,
+                                              "Interval (s)": np.concatenate([[0.0], np.diff(times)])}})
+    assert read_impact_table(export)[2] == "phyphox stopwatch"
+    e = analyse_recording(export).fit["restitution"]["e"]
+    assert e["ci95"][0] <= STOPWATCH_E <= e["ci95"][1]
+
+
 def test_dropfit_run_on_a_sound_file_writes_every_file_and_the_report(tmp_path, truth):
     path, sound = sound_file(tmp_path, truth)
     result = dropfit("run", path, "--out", tmp_path / "out", "--sample-id", "sound", "--ball-type", "table_tennis",

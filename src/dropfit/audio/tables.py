@@ -1,5 +1,5 @@
 """Tables of impact times: a CSV of the times a ball was heard to hit the floor, or the export of
-phyphox's "(In)elastic collision" experiment.
+phyphox's "(In)elastic collision" or "Acoustic Stopwatch" experiment.
 
 A CSV of times names its unit in the column: ``impact_time_s`` or ``impact_time_ms``, optionally with
 ``impact_time_se_s`` / ``impact_time_se_ms`` (standard errors); other columns are ignored. Such a table is
@@ -9,7 +9,10 @@ mapped (``--columns time=COL[ms]``, as for logs).
 
 phyphox's "(In)elastic collision" experiment exports the set "Energy" with the columns
 ``Bounce 0 (s)`` … ``Bounce 5 (s)`` (each the time of the loudest sample of a sound above the
-threshold), ``Height n (m)`` and ``Energy n``; an impact not heard is 0 or empty. phyphox writes CSV with
+threshold), ``Height n (m)`` and ``Energy n``; an impact not heard is 0 or empty. Its "Acoustic
+Stopwatch" (the tool lab manuals name for timing a bouncing ball) exports one row per sound heard,
+``Event time (s)`` and ``Interval (s)`` (the time since the event before): the event times are the
+impacts, told from a height log by that column's name. phyphox writes CSV with
 a comma, a tab or a semicolon (then with decimal commas) between the columns; all three are read, as
 a CSV or as the zip phyphox exports by default (:func:`dropfit.importers.sensors.phyphox_sets`).
 """
@@ -50,6 +53,15 @@ IMPACT_TIME_NAMES = {"impact time", "impact times", "impact", "time of impact", 
 HEADER_PEEK_CHARS = 65536
 _TIME_COLUMN = re.compile(r"(?:^|[,;\t\"\s])impact_time_m?s(?:[,;\t\"\s]|$)", re.IGNORECASE)
 _PHYPHOX_IN_HEADER = re.compile(r"bounce\s+\d+\s*\(s\)", re.IGNORECASE)
+#: The column of event times of phyphox's Acoustic Stopwatch export.
+_STOPWATCH = re.compile(r"^\s*event\s+time\s*\(s\)\s*$", re.IGNORECASE)
+_STOPWATCH_IN_HEADER = re.compile(r"(?:^|[,;\t\"])\s*event\s+time\s*\(s\)\s*(?:[,;\t\"]|$)", re.IGNORECASE)
+
+
+def _is_impact_header(header):
+    """Whether a header line names impact times: ``impact_time_s``/``_ms``, phyphox's ``Bounce n (s)`` or its
+    Acoustic Stopwatch's ``Event time (s)``."""
+    return bool(_TIME_COLUMN.search(header) or _PHYPHOX_IN_HEADER.search(header) or _STOPWATCH_IN_HEADER.search(header))
 
 
 def _first_line(lines):
@@ -66,15 +78,17 @@ def _header(path, limit=None):
         return ""
 
 
-def _phyphox_collision_set(path):
-    """The CSV text of the "(In)elastic collision" set of a zipped phyphox export, or None."""
+def _phyphox_impact_set(path):
+    """The CSV text of the set of impact times of a zipped phyphox export ("(In)elastic collision" or
+    "Acoustic Stopwatch"), or None."""
     try:
         with open(path, "rb") as handle:
             sets = phyphox_sets(handle.read())
     except OSError:
         return None
     texts = (raw.decode("utf-8-sig", "replace") for raw in (sets or {}).values())
-    return next((text for text in texts if _PHYPHOX_IN_HEADER.search(_first_line(text.splitlines()))), None)
+    return next((text for text in texts if _PHYPHOX_IN_HEADER.search(_first_line(text.splitlines()))
+                 or _STOPWATCH_IN_HEADER.search(_first_line(text.splitlines()))), None)
 
 
 def is_table_file(path):
@@ -84,14 +98,13 @@ def is_table_file(path):
 
 def is_impact_table(path):
     """True if ``path`` is a table of impact times (a CSV naming ``impact_time_s``/``_ms``, or a phyphox
-    "(In)elastic collision" export), judged by its suffix and the start of its header line (a height
-    log's header of a million columns is not read whole)."""
+    "(In)elastic collision" or "Acoustic Stopwatch" export), judged by its suffix and the start of its
+    header line (a height log's header of a million columns is not read whole)."""
     if str(path).lower().endswith(ZIP_SUFFIX):
-        return _phyphox_collision_set(path) is not None
+        return _phyphox_impact_set(path) is not None
     if not str(path).lower().endswith(TABLE_SUFFIXES):
         return False
-    header = _header(path, HEADER_PEEK_CHARS)
-    return bool(_TIME_COLUMN.search(header) or _PHYPHOX_IN_HEADER.search(header))
+    return _is_impact_header(_header(path, HEADER_PEEK_CHARS))
 
 
 def read_impact_table(path, columns=None):
@@ -100,7 +113,7 @@ def read_impact_table(path, columns=None):
     Parameters
     ----------
     path : str or pathlib.Path
-        A CSV of impact times or a phyphox "(In)elastic collision" export.
+        A CSV of impact times or a phyphox "(In)elastic collision" or "Acoustic Stopwatch" export.
     columns : str, optional
         The column of times where its name does not tell, ``"time=COL[ms]"`` (the unit in brackets,
         or in the column's name).
@@ -108,7 +121,7 @@ def read_impact_table(path, columns=None):
     Returns
     -------
     (numpy.ndarray, numpy.ndarray, str)
-        Times, standard errors, and what the table was (``"phyphox"`` or ``"csv"``).
+        Times, standard errors, and what the table was (``"phyphox"``, ``"phyphox stopwatch"`` or ``"csv"``).
 
     Raises
     ------
@@ -116,10 +129,10 @@ def read_impact_table(path, columns=None):
         For a table without times, with a time that is not a number, or with times not increasing.
     """
     name = shown_path(path)
-    zipped = _phyphox_collision_set(path) if str(path).lower().endswith(ZIP_SUFFIX) else None
+    zipped = _phyphox_impact_set(path) if str(path).lower().endswith(ZIP_SUFFIX) else None
     if zipped is None and str(path).lower().endswith(ZIP_SUFFIX):
-        raise InputError(f"{name}: is not a phyphox \"(In)elastic collision\" export (no set with columns "
-                         f"'Bounce n (s)'); export that experiment, or give its CSV")
+        raise InputError(f"{name}: is not a phyphox \"(In)elastic collision\" or \"Acoustic Stopwatch\" export (no "
+                         f"set with columns 'Bounce n (s)' or 'Event time (s)'); export that experiment, or give its CSV")
     source = path if zipped is None else io.StringIO(zipped)
     header = _header(path) if zipped is None else _first_line(zipped.splitlines())
     separator = ";" if header.count(";") > max(header.count(","), header.count("\t")) else \
@@ -139,6 +152,9 @@ def read_impact_table(path, columns=None):
         values = [pd.to_numeric(row[bounces[number]], errors="coerce") for number in sorted(bounces)]
         times = np.array([value for value in values if np.isfinite(value) and value > 0], dtype=float)
         kind, se = "phyphox", np.full(times.size, np.nan)
+    elif not columns and (stopwatch := next((column for column in table.columns if _STOPWATCH.match(column)), None)):
+        times = _numbers(table[stopwatch], name, stopwatch)
+        kind, se = "phyphox stopwatch", np.full(times.size, np.nan)
     else:
         time_column, unit = _time_column(path, list(table.columns), columns)
         times = _numbers(table[time_column], name, time_column) * TIME_UNITS_S[unit]
