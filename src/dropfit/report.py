@@ -411,7 +411,8 @@ def speed_panel(fit, impacts, n_grid=200):
     -------
     dict
         ``model`` (the chosen model, ``fit["restitution"]["model"]``), ``title``; per impact
-        ``speed_m_s`` (m/s), ``e`` and ``e_ci95_half`` (1.96 se) (1), ``in_fit`` (bool); and
+        ``speed_m_s`` (m/s), ``e`` and ``e_ci95_half`` (1.96 se) (1), ``in_fit`` (bool),
+        ``detection_error`` (bool: a missed or spurious impact, never drawn as an ordinary point); and
         ``curve``: None for ``per_impact`` (the points alone), else ``speed_m_s`` (a grid over the
         fitted impacts' speeds, m/s), ``e`` and its 95 % band ``low``, ``high`` (1) of the chosen
         law, with the legend's ``label`` and ``band_label``.
@@ -422,6 +423,7 @@ def speed_panel(fit, impacts, n_grid=200):
     fitted = impacts["impact"].isin(restitution["impacts_used"]).to_numpy()
     panel = {"model": model, "speed_m_s": speeds, "e": impacts["e"].to_numpy(dtype=float),
              "e_ci95_half": Z95 * impacts["e_se"].to_numpy(dtype=float), "in_fit": fitted, "curve": None,
+             "detection_error": detection_errors(impacts),
              "title": "(c) e per impact: no law describes these impacts" if model == "per_impact"
              else "(c) e per impact and the chosen law"}
     if model == "per_impact":
@@ -445,15 +447,31 @@ def _decimal_log_axis(axes):
     axes.yaxis.set_minor_formatter(matplotlib.ticker.NullFormatter())
 
 
+def detection_errors(impacts):
+    """Whether each impact is a detection error (its ``detection_error`` column; False without one)."""
+    if "detection_error" not in impacts:
+        return np.zeros(len(impacts), bool)
+    return impacts["detection_error"].map(lambda flag: str(flag).strip().lower() in ("true", "1", "yes")).to_numpy()
+
+
+#: How a detection error is drawn: a hollow grey marker, never an ordinary point.
+DETECTION_ERROR_STYLE = {"fmt": "D", "ms": 5, "capsize": 2, "color": "0.55", "mfc": "white",
+                         "label": "detection error: left out"}
+
+
 def _draw_speed_panel(ax_e, fit, impacts):
     """Draw panel (c), e per impact against its speed and the chosen law (:func:`speed_panel`), on ``ax_e``."""
     panel = speed_panel(fit, impacts)
-    fitted, left_out = panel["in_fit"], ~panel["in_fit"]
+    wrong = panel["detection_error"]
+    fitted, left_out = panel["in_fit"], ~panel["in_fit"] & ~wrong
     ax_e.errorbar(panel["speed_m_s"][fitted], panel["e"][fitted], yerr=panel["e_ci95_half"][fitted], fmt="o", ms=4,
                   capsize=3, color="tab:blue", label="per impact (±1.96 se)")
     if left_out.any():
         ax_e.errorbar(panel["speed_m_s"][left_out], panel["e"][left_out], yerr=panel["e_ci95_half"][left_out],
                       fmt="o", ms=4, capsize=3, color="tab:blue", mfc="white", label="left out of the fits")
+    if (wrong & np.isfinite(panel["e"])).any():
+        ax_e.errorbar(panel["speed_m_s"][wrong], panel["e"][wrong], yerr=panel["e_ci95_half"][wrong],
+                      **DETECTION_ERROR_STYLE)
     curve = panel["curve"]
     if curve:
         ax_e.plot(curve["speed_m_s"], curve["e"], "-", color="tab:orange", lw=1.2, label=curve["label"])
@@ -584,8 +602,15 @@ def _sound_figure_png(trajectory, impacts, fit):
         ax_sound.set_yticks([])
         ax_sound.set_title("(a) the impact times of the table", loc="left")
     flight = impacts["flight_time_after_s"].to_numpy(dtype=float)
-    ax_flight.errorbar(impacts["impact"], 1e3 * flight, yerr=1e3 * Z95 * impacts["flight_time_after_se_s"], fmt="o",
+    flight_se = impacts["flight_time_after_se_s"].to_numpy(dtype=float)
+    flagged = detection_errors(impacts)
+    wrong = flagged & np.r_[flagged[1:], False]  # a flight between two detection errors: the one heard wrong
+    ax_flight.errorbar(impacts["impact"][~wrong], 1e3 * flight[~wrong], yerr=1e3 * Z95 * flight_se[~wrong], fmt="o",
                        ms=3, capsize=2, color="tab:blue")
+    if (wrong & np.isfinite(flight)).any():
+        ax_flight.errorbar(impacts["impact"][wrong], 1e3 * flight[wrong], yerr=1e3 * Z95 * flight_se[wrong],
+                           **DETECTION_ERROR_STYLE)
+        ax_flight.legend(loc="best", fontsize=8)
     ax_flight.set_xlabel("impact n (count)")
     ax_flight.set_ylabel("flight time after impact n (ms)")
     ax_flight.set_title("(b) flight times (±1.96 se)", loc="left")
@@ -593,8 +618,11 @@ def _sound_figure_png(trajectory, impacts, fit):
     _draw_speed_panel(ax_e, fit, impacts)
 
     rise, rise_se = impacts["h_after_m"].to_numpy(dtype=float), impacts["h_after_se_m"].to_numpy(dtype=float)
-    ax_h.errorbar(impacts["impact"], 1e3 * rise, yerr=1e3 * Z95 * rise_se, fmt="o", ms=4, capsize=3, color="tab:blue",
-                  label="rise after impact n (from its flight time)")
+    ax_h.errorbar(impacts["impact"][~wrong], 1e3 * rise[~wrong], yerr=1e3 * Z95 * rise_se[~wrong], fmt="o", ms=4,
+                  capsize=3, color="tab:blue", label="rise after impact n (from its flight time)")
+    if (wrong & np.isfinite(rise)).any():
+        ax_h.errorbar(impacts["impact"][wrong], 1e3 * rise[wrong], yerr=1e3 * Z95 * rise_se[wrong],
+                      **DETECTION_ERROR_STYLE)
     drop = fit.get("drop_height_m") or {}
     if drop.get("value") is not None and np.isfinite(drop["value"]):
         ax_h.errorbar([0], [1e3 * drop["value"]], yerr=[1e3 * Z95 * drop["se"]], fmt="s", ms=5, capsize=3,

@@ -28,6 +28,7 @@ from ..numerics import robust_sigma
 from ..physics import STANDARD_GRAVITY_M_S2, flight_height, time_from_apex
 from .flights import (MIN_SAMPLES_PER_FLIGHT, FlightModel, bic, combine_with_prior, first_misfit_flight, first_spurious_impact,
                       fit_flights, parabola_start)
+from .detection import detection_reasons, flights_out_of_sequence
 from .impacts import (IMPACT_COLUMNS, ImpactQuantities, contact_resolvable, quantity_index, rest_time,
                       unpack_quantities)
 from .segmentation import (CONTACT_CLEARANCE_S, IMPACT_DEPTH_IN_NOISE, RELEASE_SIGMAS, check_free_fall, flight_bounds,
@@ -713,12 +714,20 @@ def refine(problem, bounds, with_drag, theta0, fixed_k=0.0):
 _TIME_COLUMNS = ("t_start_s", "t_end_s", "t_apex_s", "t_touchdown_s", "t_liftoff_s")
 
 
-def impact_notes(e):
-    """Whether each impact enters the fits of e (``in_fit``) and, where not, why (``note``)."""
-    in_fit = np.isfinite(e) & (e <= 1.0)
-    note = np.where(in_fit, "", "e > 1: an impact cannot give the ball energy (a hand, a tracking error or a missed "
-                                "impact); left out of every fit")
-    return in_fit, note
+def impact_notes(e, flight_after_s=None):
+    """Whether each impact enters the fits of e (``in_fit``), where not why (``note``), and whether it is a
+    detection error (:func:`dropfit.analysis.detection.detection_reasons`: e > 1, the flight after it
+    outlasting the one before, or a flight beside it out of the sequence of the others); ``flight_after_s``
+    is each impact's flight after it, s (NaN after the last)."""
+    e = np.asarray(e, float)
+    if flight_after_s is None:
+        reasons = detection_reasons(e)
+    else:
+        after = np.asarray(flight_after_s, float)
+        out = flights_out_of_sequence(after)
+        reasons = detection_reasons(e, np.r_[np.nan, after[:-1]], after, np.r_[False, out[:-1]], out)
+    detected = reasons != ""
+    return np.isfinite(e) & ~detected, np.where(detected, reasons, ""), detected
 
 
 def _assemble(fit, bics, problem, origin, source, uncertainty, data, notes, ball):
@@ -777,7 +786,8 @@ def _assemble(fit, bics, problem, origin, source, uncertainty, data, notes, ball
                      + "; the contact times are not reported as resolved")
     impacts["n_samples_before"] = counts[:-1]
     impacts["n_samples_after"] = counts[1:]
-    impacts["in_fit"], impacts["note"] = impact_notes(values["e"])
+    impacts["in_fit"], impacts["note"], impacts["detection_error"] = impact_notes(values["e"],
+                                                                                 values["flight_time_after_s"])
     for table in (flights, impacts):
         for name in _TIME_COLUMNS:
             for column in (name, se_column_name(name, "ci95_low"), se_column_name(name, "ci95_high")):

@@ -19,10 +19,13 @@ Without drag the e of two flights is the ratio of their times, the acoustic way.
 
 from __future__ import annotations
 
+import dataclasses
+
 import numpy as np
 import pandas as pd
 
 from ..analysis.bounces import BounceAnalysis
+from ..analysis.detection import DETECTION_ERROR, detection_reasons, flights_out_of_sequence, spurious_events
 from ..analysis.tables import add_with_interval
 from ..balls import contact_time_at
 from ..numerics import jacobian, propagate
@@ -83,7 +86,83 @@ def impact_quantities(theta, n_impacts, release_time_s=None):
 def analyse_impact_times(times_s, times_se_s, gravity_m_s2, gravity_se_m_s2=0.0, drag_k_per_m=0.0,
                          drag_relative_se=0.0, contact_time_prior_s=(0.0, 0.0), contact_time_exponent=(0.0, 0.0),
                          release_time_s=None, source="recording"):
-    """Flights, impacts and their covariances from the times a ball was heard to hit the floor.
+    """Flights, impacts and their covariances from the times a ball was heard to hit the floor, detection
+    errors found and left out (:mod:`dropfit.analysis.detection`).
+
+    A sound within a flight that splits it in two (:func:`~dropfit.analysis.detection.spurious_events`) is
+    no impact: the flights are those of the other times, and the event keeps a row of its own in the
+    impacts table with its reason and nothing measured. An impact whose e exceeds 1, or whose flight
+    outlasts the one before, or next to a flight out of the sequence (an impact missed), keeps its values
+    with ``detection_error`` true, ``in_fit`` false and the reason in ``note``. Parameters and returns as
+    :func:`analyse_times`.
+    """
+    times = np.asarray(times_s, dtype=float)
+    times_se = np.asarray(times_se_s, dtype=float)
+    spurious = spurious_events(times, times_se)
+    kept = np.setdiff1d(np.arange(times.size), spurious)
+    analysis = analyse_times(times[kept], times_se[kept], gravity_m_s2, gravity_se_m_s2, drag_k_per_m,
+                             drag_relative_se, contact_time_prior_s, contact_time_exponent, release_time_s, source)
+    impacts = analysis.impacts.copy()
+    flight = impacts["flight_time_after_s"].to_numpy(dtype=float)
+    flight_se = impacts["flight_time_after_se_s"].to_numpy(dtype=float)
+    out = flights_out_of_sequence(flight, flight_se)
+    reasons = detection_reasons(impacts["e"].to_numpy(dtype=float), np.r_[np.nan, flight[:-1]], flight,
+                                np.r_[False, out[:-1]], out)
+    flagged = reasons != ""
+    notes = impacts["note"].astype(object).where(impacts["note"].astype(bool), "").tolist()
+    impacts["note"] = [reason or note for reason, note in zip(reasons, notes)]
+    impacts["in_fit"] = impacts["in_fit"].to_numpy(bool) & ~flagged
+    impacts["detection_error"] = flagged
+    summary = dict(analysis.summary, detection_errors=int(flagged.sum()) + len(spurious),
+                   spurious_events=[float(times[i]) for i in spurious])
+    if spurious:
+        impacts, matrices = _with_spurious_rows(impacts, analysis, times, times_se, kept, spurious)
+        summary["notes"] = summary["notes"] + [
+            f"{len(spurious)} sound{'s' if len(spurious) > 1 else ''} within a flight (at "
+            f"{', '.join(f'{times[i]:.4g}' for i in spurious)} s) split it in two: not an impact, left out; the "
+            f"flight is whole again"]
+        analysis = dataclasses.replace(analysis, **matrices)
+    return dataclasses.replace(analysis, impacts=impacts, summary=summary)
+
+
+def _with_spurious_rows(impacts, analysis, times, times_se, kept, spurious):
+    """The impacts table with a row for each spurious event (its time, its reason, nothing measured) in
+    time order, renumbered, and the covariances of e (and contact times) with zero rows for them."""
+    rows = []
+    for i in spurious:
+        before, after = times[i - 1] if i > 0 else np.nan, times[i + 1] if i + 1 < times.size else np.nan
+        rows.append({"t_touchdown_s": times[i], "t_touchdown_se_s": times_se[i], "in_fit": False,
+                     "detection_error": True, "contact_resolvable": False,
+                     "note": f"{DETECTION_ERROR}: a sound {times[i] - before:.3g} s after the impact before it and "
+                             f"{after - times[i]:.3g} s before the next, within one flight of the sequence: not "
+                             f"an impact; the flight is whole again, and this event is left out of every fit"})
+    order = np.argsort(np.r_[kept, spurious], kind="stable")
+    table = pd.concat([impacts, pd.DataFrame(rows)], ignore_index=True).iloc[order].reset_index(drop=True)
+    table["impact"] = np.arange(1, len(table) + 1)
+    table["in_fit"] = table["in_fit"].astype(bool)
+    table["detection_error"] = table["detection_error"].astype(bool)
+    table["contact_resolvable"] = table["contact_resolvable"].astype(bool)
+    n, total = len(impacts), len(table)
+    position = np.empty(total, int)
+    position[order] = np.arange(total)
+    old = position[:n]  # where each analysed impact lands in the table
+
+    def spread(matrix, blocks):
+        grown = np.zeros((blocks * total, blocks * total))
+        index = np.concatenate([block * total + old for block in range(blocks)])
+        grown[np.ix_(index, index)] = matrix
+        return grown
+
+    drag = np.zeros(total)
+    drag[old] = analysis.e_drag_covariance
+    return table, {"e_covariance": spread(analysis.e_covariance, 1),
+                   "e_contact_covariance": spread(analysis.e_contact_covariance, 2), "e_drag_covariance": drag}
+
+
+def analyse_times(times_s, times_se_s, gravity_m_s2, gravity_se_m_s2=0.0, drag_k_per_m=0.0,
+                  drag_relative_se=0.0, contact_time_prior_s=(0.0, 0.0), contact_time_exponent=(0.0, 0.0),
+                  release_time_s=None, source="recording"):
+    """Flights, impacts and their covariances from the times a ball was heard to hit the floor, as they are.
 
     Parameters
     ----------
