@@ -255,11 +255,10 @@ UPRIGHT_DRIFT_M_S = 0.05  # m/s sideways
 UPRIGHT_E_TOL, UPRIGHT_HEIGHT_REL_TOL = 0.001, 0.005
 
 
-def upright_camera_project(angle_deg, seed=1):
-    """A .trk of an upright camera's marks of a ball dropped from the release (image up is up: image rows
-    are ``release row + px/m × (drop − height)``, the closed-form bounce), whose coordinate system has its
-    origin at the release and its x axis turned ``angle_deg`` counter-clockwise from the image x axis; the
-    truth does not depend on the axes."""
+def upright_marks(seed=1):
+    """Frames, times (s) and the image px (column, row) of an upright camera's marks of a ball dropped from the
+    release (image up is up: rows are ``release row + px/m × (drop − height)``, the closed-form bounce),
+    drifting sideways, with Gaussian mark noise (seeded)."""
     frames = np.arange(int(2.5 * UPRIGHT_FPS))
     time = frames / UPRIGHT_FPS
     height = bouncing_ball(time, UPRIGHT_DROP_M, UPRIGHT_E)
@@ -267,6 +266,14 @@ def upright_camera_project(angle_deg, seed=1):
     x0, y0 = UPRIGHT_RELEASE_PX
     column = x0 + UPRIGHT_PX_PER_M * UPRIGHT_DRIFT_M_S * time + rng.normal(0, UPRIGHT_NOISE_PX, time.size)
     row = y0 + UPRIGHT_PX_PER_M * (UPRIGHT_DROP_M - height) + rng.normal(0, UPRIGHT_NOISE_PX, time.size)
+    return frames, time, column, row
+
+
+def upright_camera_project(angle_deg, seed=1):
+    """A .trk of :func:`upright_marks`, whose coordinate system has its origin at the release and its x axis
+    turned ``angle_deg`` counter-clockwise from the image x axis; the truth does not depend on the axes."""
+    frames, time, column, row = upright_marks(seed)
+    x0, y0 = UPRIGHT_RELEASE_PX
     system = (f'<property name="[0]" type="object"><object class="org.opensourcephysics.media.core.ImageCoordSystem'
               f'$FrameData">{_prop("xorigin", "double", x0)}{_prop("yorigin", "double", y0)}'
               f'{_prop("angle", "double", angle_deg)}{_prop("xscale", "double", UPRIGHT_PX_PER_M)}'
@@ -299,3 +306,28 @@ def test_tracker_axes_at_any_angle_give_the_same_bounces(tmp_path, angle_deg):
     np.testing.assert_allclose(impacts["h_before_m"], UPRIGHT_DROP_M * UPRIGHT_E ** (2 * np.arange(len(impacts))),
                                rtol=UPRIGHT_HEIGHT_REL_TOL)
     np.testing.assert_allclose(impacts["e"], UPRIGHT_E, atol=3 * UPRIGHT_E_TOL)
+
+
+def upright_camera_data_table(angle_deg, seed=1):
+    """The same marks as :func:`upright_camera_project` as Tracker's exported data table (``mass A``, then
+    ``t x y`` in m, tabs): Tracker's image-to-world transform of its ``ImageCoordSystem`` (the inverse of
+    rotate, scale to px with image rows down, translate to the origin), written here from its documentation."""
+    frames, time, column, row = upright_marks(seed)
+    x0, y0 = UPRIGHT_RELEASE_PX
+    along, across = (column - x0) / UPRIGHT_PX_PER_M, (y0 - row) / UPRIGHT_PX_PER_M  # image right and up, m
+    cos, sin = math.cos(math.radians(angle_deg)), math.sin(math.radians(angle_deg))
+    world_x, world_y = cos * along + sin * across, -sin * along + cos * across
+    return "mass A\nt\tx\ty\n" + "".join(f"{t:.6f}\t{x:.6f}\t{y:.6f}\n" for t, x, y in zip(time, world_x, world_y))
+
+
+@pytest.mark.parametrize("angle_deg", [90.0, -179.6, 180.0, 30.0])
+def test_tracker_data_tables_of_turned_axes_give_the_same_bounces(tmp_path, angle_deg):
+    """Tracker's exported table of axes turned any way: x up (90°), y down (−179.6°, 180°: refused before as
+    'the heights point down'), 30°: e and every height are the upright truth's."""
+    path = tmp_path / f"table_{angle_deg:g}.txt"
+    path.write_text(upright_camera_data_table(angle_deg), encoding="utf-8")
+    result = analyse_recording(path)
+    assert result.fit["restitution"]["e"]["value"] == pytest.approx(UPRIGHT_E, abs=UPRIGHT_E_TOL)
+    impacts = result.impacts
+    np.testing.assert_allclose(impacts["h_before_m"], UPRIGHT_DROP_M * UPRIGHT_E ** (2 * np.arange(len(impacts))),
+                               rtol=UPRIGHT_HEIGHT_REL_TOL)

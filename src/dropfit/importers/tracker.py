@@ -22,6 +22,7 @@ unless the header names another).
 
 from __future__ import annotations
 
+import dataclasses
 import io
 import math
 import xml.etree.ElementTree as ElementTree
@@ -262,7 +263,13 @@ def upright(time_s, x, y):
         words = (f"; the flights fall {np.degrees(abs(np.angle(np.exp(1j * (found - np.pi / 2))))):.1f}° from its y "
                  f"axis: heights along their vertical ({np.degrees(found):.1f}° from its x axis)")
     cos, sin = np.cos(up), np.sin(up)
-    return sin * x - cos * y, cos * x + sin * y, float(np.degrees(up)), words
+    if up in axes:  # exactly an axis: no term of the other (a mark without x keeps its height)
+        cos, sin = round(cos), round(sin)
+
+    def turned(a, first, b, second):
+        return sum(weight * values for weight, values in ((a, first), (b, second)) if weight != 0)
+
+    return turned(sin, x, -cos, y), turned(cos, x, sin, y), float(np.degrees(up)), words
 
 
 def _timing_words(delta_t_s, fps):
@@ -302,8 +309,20 @@ def _whole_rate_cut_to(step_ms):
 
 def read_data_table(table, options, which=""):
     """Tracker's exported data (a track name line, then ``t x y``): time in s and lengths in m unless named;
-    ``which`` says how the track was chosen among several."""
+    ``which`` says how the track was chosen among several. Its x and y are in the project's axes, turned as
+    the user turned them: the height is along the flights' up (:func:`upright`; with y alone, y or −y),
+    unless ``--columns`` names the columns."""
     track = track_from_table(table, "tracker", options, default_time_unit="s", default_length_unit="m")
+    if track.unit != "px" and not options.columns:
+        if track.x is not None:
+            x, y, _, words = upright(track.time_s, track.x, track.y)
+        else:
+            from ..analysis import vertical_sign
+
+            down = vertical_sign(track.time_s, track.y) < 0
+            x, y, words = None, -track.y if down else track.y, "; its y axis points down: heights are −y" if down \
+                else ""
+        track = dataclasses.replace(track, x=x, y=y, mapping=track.mapping + words.replace("its", "Tracker's", 1))
     if table.preamble:
         track.mapping += f" (track '{shown(table.preamble[-1].strip(), 30)}'{which})"
     return track
