@@ -115,3 +115,26 @@ def test_a_height_log_impact_with_e_above_1_is_a_detection_error(tmp_path):
     kept = impacts[impacts["in_fit"].astype(bool)]
     assert np.all(np.abs(kept["e"] - 0.8) <= 3 * kept["e_se"] + 0.005)
     assert speed_panel(result.fit, impacts)["detection_error"].tolist() == (impacts["impact"] == 3).tolist()
+
+
+@pytest.mark.parametrize("e, count, change, flagged", [
+    (0.93, 8, ("split", 2, 0.5), [4]),  # a lively ball's flight split in half: parts alike, their ratio ≈ 1
+    (0.85, 6, ("missed", 2, None), [2, 3]),  # a short sequence: as many wrong ratios as right ones
+    (0.85, 7, ("split", 0, 0.35), [2]),  # the first flight split
+])
+def test_detection_errors_in_short_and_lively_sequences(tmp_path, e, count, change, flagged):
+    """The typical ratio is the largest cluster of the ratios below 1 (the plain median of [e, e²/(1 + e)] was
+    neither), and a flight split near its middle is merged back though its parts' ratio ≈ 1 passes for a lively
+    ball's: the impacts left in the fit hold the truth, each within 4 se."""
+    from dropfit.audio.flights import analyse_impact_times
+
+    times = stopwatch_times(count=count, e=e)
+    kind, where, fraction = change
+    if kind == "missed":
+        times = np.delete(times, where)
+    else:
+        times = np.sort(np.r_[times, times[where] + fraction * (times[where + 1] - times[where])])
+    impacts = analyse_impact_times(times, np.full(times.size, 3e-4), 9.81).impacts
+    assert _flagged(impacts) == flagged
+    kept = impacts[impacts["in_fit"].astype(bool)]
+    assert len(kept) >= 1 and np.all(np.abs(kept["e"] - e) <= 4 * kept["e_se"]), kept[["impact", "e"]]

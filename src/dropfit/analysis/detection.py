@@ -8,8 +8,8 @@ in the impacts table with its reason (``detection_error`` true, ``in_fit`` false
 is left out of every fit, and the report draws it apart.
 
 With impact times a wrong event spoils both flights it bounds, so both impacts that use them. A flight
-belongs to the sequence when its ratio to a neighbouring flight is the sequence's typical ratio (the
-median of the ratios below 1) to :data:`FLIGHT_RATIO_TOLERANCE` or three standard errors; one that
+belongs to the sequence when its ratio to a neighbouring flight is the sequence's typical ratio (of the
+ratios below 1, the median of their largest cluster: :func:`typical_ratio`) to :data:`FLIGHT_RATIO_TOLERANCE` or three standard errors; one that
 agrees with neither neighbour is out of the sequence. An event that splits a flight is found by merging:
 a flight out of the sequence whose sum with a neighbour is in it was split by the event between them
 (:func:`spurious_events`); that event is left out and the flight it split is whole again. A flight
@@ -33,12 +33,22 @@ DETECTION_ERROR = "detection error"
 
 
 def typical_ratio(flight_s):
-    """The median of the ratios of consecutive flights (each over the one before) that are below 1, NaN
-    without one: a bouncing ball's e as its flights show it, undisturbed by a few wrong ones."""
+    """A bouncing ball's e as its flights show it, undisturbed by a few wrong ones: of the ratios of
+    consecutive flights (each over the one before) below 1, the largest cluster within
+    :data:`FLIGHT_RATIO_TOLERANCE` of one of them, its median; NaN without a ratio below 1. In a short
+    sequence a wrong event leaves as many wrong ratios as right ones (a flight merged from two: 1 + e, then
+    e²/(1 + e), beside e), and their plain median is neither; a tie goes to the largest cluster's ratio, as
+    the wrong ones below 1 fall short of e (e²/(1 + e) after a merged flight, f e before a flight split at
+    a fraction f of it)."""
     flight_s = np.asarray(flight_s, float)
-    ratios = flight_s[1:] / flight_s[:-1]
-    plausible = ratios[np.isfinite(ratios) & (ratios > 0) & (ratios < 1)]
-    return float(np.median(plausible)) if plausible.size else np.nan
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratios = flight_s[1:] / flight_s[:-1]
+    logs = np.log(ratios[np.isfinite(ratios) & (ratios > 0) & (ratios < 1)])
+    if not logs.size:
+        return np.nan
+    support = (np.abs(logs[:, None] - logs[None, :]) <= FLIGHT_RATIO_TOLERANCE).sum(axis=1)
+    pick = np.max(logs[support == support.max()])
+    return float(np.exp(np.median(logs[np.abs(logs - pick) <= FLIGHT_RATIO_TOLERANCE])))
 
 
 def flights_out_of_sequence(flight_s, flight_se_s=None):
@@ -56,20 +66,27 @@ def flights_out_of_sequence(flight_s, flight_se_s=None):
         deviation = np.abs(np.log(flight_s[1:] / flight_s[:-1]) - np.log(typical))
         spread = np.hypot(se[1:] / flight_s[1:], se[:-1] / flight_s[:-1])
     judged = np.isfinite(deviation)
-    agrees = judged & (deviation <= np.maximum(FLIGHT_RATIO_TOLERANCE, FLIGHT_RATIO_SIGMAS * np.nan_to_num(spread)))
-    held, seen = np.zeros(n, bool), np.zeros(n, bool)
+    agrees = judged & (flight_s[1:] < flight_s[:-1]) & (deviation <= np.maximum(FLIGHT_RATIO_TOLERANCE, FLIGHT_RATIO_SIGMAS * np.nan_to_num(spread)))
+    held, seen = np.zeros(n, bool), np.zeros(n, int)
     held[1:] |= agrees
     held[:-1] |= agrees
-    seen[1:] |= judged  # a flight without a measured neighbour is not judged
-    seen[:-1] |= judged
-    return seen & ~held
+    seen[1:] += judged  # how many measured neighbours judge a flight
+    seen[:-1] += judged
+    out = (seen == 2) & ~held  # disagreeing on both sides
+    # a flight judged by one neighbour only (the ends, or beside a gap) is to blame for their disagreement
+    # only if that neighbour is not itself out: the flight after a merged one is not
+    for j in np.flatnonzero((seen == 1) & ~held):
+        neighbour = j - 1 if j > 0 and judged[j - 1] else j + 1
+        out[j] = held[neighbour]
+    return out
 
 
 def spurious_events(times_s, times_se_s=None):
     """Positions of the events among ``times_s`` (impact times, s, increasing) that split a flight in two.
 
-    A flight out of the sequence (:func:`flights_out_of_sequence`) whose sum with a neighbouring flight
-    agrees with the flights on both sides of the sum (the typical ratio to within the tolerance) was split
+    A flight out of the sequence (:func:`flights_out_of_sequence`), or one of two of which the second
+    outlasts the first (a flight split near its middle has parts alike, whose ratio near 1 passes for a
+    lively ball's), whose sum with a neighbouring flight agrees with the flights on both sides of the sum (the typical ratio to within the tolerance) was split
     by the event between the two; the best such merge (the smallest disagreement) is made and the search
     repeated until no merge helps.
     """
@@ -80,10 +97,13 @@ def spurious_events(times_s, times_se_s=None):
     while kept.size >= 5:
         flight = np.diff(times[kept])
         flight_se = np.hypot(se[kept][1:], se[kept][:-1])
-        out = flights_out_of_sequence(flight, flight_se)
+        suspect = flights_out_of_sequence(flight, flight_se)
+        outlasting = flight[1:] > flight[:-1]  # a flight longer than the one before: one of the two is wrong
+        suspect[1:] |= outlasting
+        suspect[:-1] |= outlasting
         typical = typical_ratio(flight)
         best = None
-        for j in np.flatnonzero(out):
+        for j in np.flatnonzero(suspect):
             for other in (j - 1, j + 1):
                 if not 0 <= other < flight.size:
                     continue
