@@ -456,6 +456,25 @@ def test_mtrack2_with_spaces_tracks_line_and_star_flags(spaces, tmp_path):
         read_track(path, ImportOptions(fps=FPS))
 
 
+@pytest.mark.parametrize("numbered", [True, False])
+def test_mtrack2_raw_tracks_with_spaces(numbered, tmp_path):
+    """The Raw Tracks window saved with spaces ('X1 Y1 Flag1 …', its row numbers with no name over them, or
+    none), '*' flags only where flagged: the row (number) is the frame, the positions the fixture's."""
+    frames = np.arange(1, 101)
+    _, column, row = ball_in_image(frames)
+    lines = ["X1 Y1 Flag1 X2 Y2 Flag2"]
+    for i, frame in enumerate(frames):
+        cells = ([str(frame)] if numbered else []) + ["12.0", "30.5", " ", f"{column[i]:.3f}", f"{row[i]:.3f}",
+                                                       "*" if frame % 7 == 0 else " "]
+        lines.append(" ".join(cells).rstrip())
+    path = tmp_path / "Raw Tracks.txt"
+    path.write_text("\n".join(lines) + "\n")
+    track = read_track(path, ImportOptions(fps=FPS))
+    assert "Raw Tracks" in track.mapping and "track 2" in track.mapping
+    np.testing.assert_allclose(track.time_s, (frames - 1) / FPS, atol=1e-12)
+    np.testing.assert_allclose(track.y, row, atol=6e-4)
+
+
 def test_mtrack2_header_ending_in_a_separator(tmp_path):
     """MTrack2 may end its header with a tab the rows do not have: the empty column past the data is no column
     (it was 'no table of numbers under a header found')."""

@@ -139,6 +139,9 @@ def _spaced_table(path, body):
     groups = (len(names) - start) // 3
     if groups == 0 or [f"{axis}{k}" for k in range(1, groups + 1) for axis in ("X", "Y", "FLAG")] != names[start:]:
         return None
+    firsts = [line.split()[0] for line in lines[1:]]
+    if start == 0 and firsts and firsts == [str(number) for number in range(1, len(firsts) + 1)]:
+        header, start = [""] + header, 1  # the Raw Tracks window saved with its row numbers (no name over them)
     rows = []
     for number, line in enumerate(lines[1:], 1):
         tokens = line.split()
