@@ -714,17 +714,17 @@ def refine(problem, bounds, with_drag, theta0, fixed_k=0.0):
 _TIME_COLUMNS = ("t_start_s", "t_end_s", "t_apex_s", "t_touchdown_s", "t_liftoff_s")
 
 
-def impact_notes(e, flight_after_s=None):
+def impact_notes(e, flight_after_s=None, flight_after_se_s=None):
     """Whether each impact enters the fits of e (``in_fit``), where not why (``note``), and whether it is a
     detection error (:func:`dropfit.analysis.detection.detection_reasons`: e > 1, the flight after it
     outlasting the one before, or a flight beside it out of the sequence of the others); ``flight_after_s``
-    is each impact's flight after it, s (NaN after the last)."""
+    is each impact's flight after it, s (NaN after the last), ``flight_after_se_s`` their standard errors."""
     e = np.asarray(e, float)
     if flight_after_s is None:
         reasons = detection_reasons(e)
     else:
         after = np.asarray(flight_after_s, float)
-        out = flights_out_of_sequence(after)
+        out = flights_out_of_sequence(after, flight_after_se_s)
         reasons = detection_reasons(e, np.r_[np.nan, after[:-1]], after, np.r_[False, out[:-1]], out)
     detected = reasons != ""
     return np.isfinite(e) & ~detected, np.where(detected, reasons, ""), detected
@@ -786,8 +786,8 @@ def _assemble(fit, bics, problem, origin, source, uncertainty, data, notes, ball
                      + "; the contact times are not reported as resolved")
     impacts["n_samples_before"] = counts[:-1]
     impacts["n_samples_after"] = counts[1:]
-    impacts["in_fit"], impacts["note"], impacts["detection_error"] = impact_notes(values["e"],
-                                                                                 values["flight_time_after_s"])
+    impacts["in_fit"], impacts["note"], impacts["detection_error"] = impact_notes(
+        values["e"], values["flight_time_after_s"], errors["flight_time_after_s"])
     for table in (flights, impacts):
         for name in _TIME_COLUMNS:
             for column in (name, se_column_name(name, "ci95_low"), se_column_name(name, "ci95_high")):
