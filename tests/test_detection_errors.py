@@ -65,6 +65,10 @@ def test_a_spurious_sound_is_merged_back_into_its_flight(tmp_path):
     assert row["t_touchdown_s"] == pytest.approx(extra, abs=1e-8) and not np.isfinite(row["e"])
     assert "not an impact" in row["note"] and not row["in_fit"]
     assert len(impacts) == times.size + 1
+    flights = result.flights  # flight n follows impact n: none follows the spurious event
+    assert SPLIT_AFTER + 1 not in flights["flight"].tolist() and SPLIT_AFTER + 2 in flights["flight"].tolist()
+    whole = flights.loc[flights["flight"] == SPLIT_AFTER].iloc[0]
+    assert whole["t_end_s"] == pytest.approx(times[SPLIT_AFTER], abs=1e-8)
     assert result.fit["restitution"]["n_impacts"] == times.size - 2  # all but the first and the last have an e
     _check_remaining(result, [SPLIT_AFTER + 1])
 

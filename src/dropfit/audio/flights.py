@@ -127,7 +127,8 @@ def analyse_impact_times(times_s, times_se_s, gravity_m_s2, gravity_se_m_s2=0.0,
 
 def _with_spurious_rows(impacts, analysis, times, times_se, kept, spurious):
     """The impacts table with a row for each spurious event (its time, its reason, nothing measured) in
-    time order, renumbered, and the covariances of e (and contact times) with zero rows for them."""
+    time order, renumbered, the covariances of e (and contact times) with zero rows for them, and the
+    flights numbered as the impacts they follow."""
     rows = []
     for i in spurious:
         before, after = times[i - 1] if i > 0 else np.nan, times[i + 1] if i + 1 < times.size else np.nan
@@ -155,8 +156,12 @@ def _with_spurious_rows(impacts, analysis, times, times_se, kept, spurious):
 
     drag = np.zeros(total)
     drag[old] = analysis.e_drag_covariance
+    flights = analysis.flights.copy()  # flight n follows impact n: numbered as their impacts now are
+    after = flights["flight"].to_numpy(int)
+    flights["flight"] = np.where(after > 0, old[np.clip(after - 1, 0, n - 1)] + 1, after)
     return table, {"e_covariance": spread(analysis.e_covariance, 1),
-                   "e_contact_covariance": spread(analysis.e_contact_covariance, 2), "e_drag_covariance": drag}
+                   "e_contact_covariance": spread(analysis.e_contact_covariance, 2), "e_drag_covariance": drag,
+                   "flights": flights}
 
 
 def analyse_times(times_s, times_se_s, gravity_m_s2, gravity_se_m_s2=0.0, drag_k_per_m=0.0,
