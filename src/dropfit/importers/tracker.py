@@ -216,7 +216,7 @@ def read_project(path, raw, options):
                        "origin_px": f"{project.frame_coords(mass.frames[:1])[0][0]:.3f},"
                                     f"{project.frame_coords(mass.frames[:1])[1][0]:.3f}",
                        "up_deg": up_deg}
-        what = f"Tracker's calibration ({np.median(y_scale):.6g} px/{unit}, axes at {np.degrees(np.median(angle)):.3g}°" \
+        what = f"Tracker's calibration ({np.median(y_scale):.6g} px/{unit}, axes at {np.degrees(np.median(angle)):.4g}°" \
                f"{vertical})"
     else:
         x, y, unit, calibration, what = mass.x_px, mass.y_px, "px", {}, "image px (no calibration in the project)"
