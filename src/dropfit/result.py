@@ -173,9 +173,14 @@ class RecordingResult:
         e = self.params["e"]
         itf = self.fit["itf"]["verdict"]
         fusion = self.fusion
-        sensors = "" if fusion is None else f"; {fusion.headline()}"
-        return (f"{self.name}: e = {format_pm(e.value, e.stderr)} ({restitution['model']}, "
-                f"{restitution['n_impacts']} of {restitution['n_impacts_total']} impacts{sensors}), drop height "
+        fitted = f"{restitution['model']}, {restitution['n_impacts']} of {restitution['n_impacts_total']} impacts"
+        if fusion is None:
+            about = fitted
+        elif fusion.source == "sound" and fusion.e_picture is not None:  # the picture's fit, the sound's e
+            about = f"{fusion.headline()}; the picture's fit: {fitted}"
+        else:
+            about = f"{fitted}; {fusion.headline()}"
+        return (f"{self.name}: e = {format_pm(e.value, e.stderr)} ({about}), drop height "
                 f"{format_pm(self.params['drop_height'].value, self.params['drop_height'].stderr)} m"
                 + ("" if itf == "not applicable" else f", ITF {itf}"))
 
