@@ -482,15 +482,15 @@ def measure_sound_and_picture(path, ball=None, settings=None, *, sample_id=None,
     seen_index, heard_index = pair_impacts(seen["t_touchdown_s"].to_numpy(), heard.impacts["t_touchdown_s"].to_numpy())
     offset = (float("nan"), float("nan"))
     notes = []
-    if seen_index.size >= fuse.MIN_PAIRS:
+    if seen_index.size:
         offset = fuse.fit_offset(seen["t_touchdown_s"].to_numpy()[seen_index],
                                  seen["t_touchdown_se_s"].to_numpy()[seen_index],
                                  heard.impacts["t_touchdown_s"].to_numpy()[heard_index],
                                  heard.impacts["t_touchdown_se_s"].to_numpy()[heard_index])
+        if seen_index.size < fuse.MIN_PAIRS:
+            notes.append("the offset is that of one impact paired: not checked by a second")
         # (the picture's release is not given to the sound: its first e would share the picture's error of the
         # release, not independent of the picture's first e, and the release's error is not carried)
-    else:
-        seen_index, heard_index = seen_index[:0], heard_index[:0]
     fusion = fuse.fuse(seen, picture.analysis.e_covariance, picture.fit, heard.impacts, heard.analysis.e_covariance,
                        heard.fit, seen_index, heard_index, offset, notes)
     return _with_fusion(picture, fusion)

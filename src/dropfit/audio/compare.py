@@ -25,19 +25,24 @@ from .recording import sound_trajectory
 #: An impact heard and an impact seen are the same when, after the clocks' offset, they are closer
 #: than this (s): well below a bounce's flight time, well above a video's touchdown uncertainty.
 PAIR_TOLERANCE_S = 0.02
+#: The largest offset between a recording's sound and its frames (s): phones keep them within about 0.1 s;
+#: clicks that pair with the impacts seen only further apart are other sounds.
+MAX_OFFSET_S = 0.3
 
 
-def pair_impacts(video_s, sound_s, tolerance_s=PAIR_TOLERANCE_S):
-    """Pair impact times seen and heard (s, each increasing) across an unknown clock offset.
+def pair_impacts(video_s, sound_s, tolerance_s=PAIR_TOLERANCE_S, max_offset_s=MAX_OFFSET_S):
+    """Pair impact times seen and heard (s, each increasing) across an unknown clock offset (at most
+    ``max_offset_s``).
 
     Returns
     -------
     (numpy.ndarray, numpy.ndarray)
         Indices into ``video_s`` and ``sound_s`` of the pairs, for the offset (sound − video) that pairs
-        the most (the smallest such offset on a tie).
+        the most (the smallest such offset on a tie); empty when none pairs within the largest offset.
     """
     best = (np.array([], int), np.array([], int))
-    for offset in sorted(np.subtract.outer(sound_s, video_s).ravel(), key=abs):
+    offsets = np.subtract.outer(np.asarray(sound_s, float), np.asarray(video_s, float)).ravel()
+    for offset in sorted(offsets[np.abs(offsets) <= max_offset_s], key=abs):
         shifted = video_s + offset
         nearest = np.array([int(np.argmin(np.abs(sound_s - t))) for t in shifted])
         close = np.abs(sound_s[nearest] - shifted) < tolerance_s

@@ -366,14 +366,18 @@ def fuse(picture_impacts, picture_e_covariance, picture_fit, sound_impacts, soun
         information = float(np.ones(dof) @ precision @ np.ones(dof))
         mean_difference = float(np.ones(dof) @ precision @ difference) / information
         z = mean_difference * math.sqrt(information)
-    unpaired = len(pairs) < MIN_PAIRS and min(len(picture_impacts), len(sound_impacts)) >= MIN_PAIRS
-    if e_picture is None or e_sound is None or not usable and not unpaired:
-        if e_picture is not None and e_sound is not None:
-            notes.append("no impact has an e from both: the sound's and the picture's e are of different impacts")
+    # no pair at all, or too few where both sensors have several impacts: the clicks are not the impacts seen
+    unpaired = bool(len(picture_impacts) and len(sound_impacts)) and (
+        not pairs or len(pairs) < MIN_PAIRS <= min(len(picture_impacts), len(sound_impacts)))
+    if e_picture is None or e_sound is None:
         source = "picture" if e_picture is not None else "sound"
         return SoundAndPicture(source, e_picture or e_sound, e_picture, e_sound, None, *offset, tuple(pairs), chi2,
                                dof, p, z, notes=tuple(notes))
-    combined = None
+    if not usable:  # no impact with an e from both: their headline e compared
+        mean_difference = e_picture.value - e_sound.value
+        z = mean_difference / math.hypot(e_picture.se, e_sound.se)
+        notes.append("no impact has an e from both sensors: their headline e are compared (of different impacts)")
+    combined = Estimate(*inverse_variance([e_picture.value, e_sound.value], [e_picture.se, e_sound.se]))
     if usable:
         numbers, speeds, series, covariance = combined_series(picture_impacts, picture_e_covariance, sound_impacts,
                                                               sound_e_covariance, picture_index, sound_index)
@@ -383,18 +387,21 @@ def fuse(picture_impacts, picture_e_covariance, picture_fit, sound_impacts, soun
         notes.append(f"combined e: the {models['chosen']} model fitted to {numbers.size} impacts' e, each the "
                      f"inverse-variance combination of the picture's and the sound's where both measured it, at "
                      f"impact {models['reference']['impact']}")
-    disagree = bool(unpaired or p < AGREEMENT_P or abs(z) > Z95)
+    disagree = bool(unpaired or (np.isfinite(p) and p < AGREEMENT_P) or abs(z) > Z95)
     if not disagree:
         return SoundAndPicture("sound and picture", combined, e_picture, e_sound, combined, *offset, tuple(pairs),
                                chi2, dof, p, z, True, notes=tuple(notes))
     # a disagreement: which is suspect, if one can tell
+    from .compare import MAX_OFFSET_S
+
     suspect = why = None
     shifts = sorted({pair.impact_picture - pair.impact_sound for pair in pairs})
     sound_jumps, picture_jumps = _jumps(sound_impacts, sound_e_covariance), _jumps(picture_impacts, picture_e_covariance)
     if unpaired:
         suspect, why = "sound", (f"the {len(sound_impacts)} impacts heard do not pair with the {len(picture_impacts)} "
-                                 f"seen at any one offset (fewer than {MIN_PAIRS} pairs): the clicks chosen are not "
-                                 f"the impacts filmed (other sounds, or impacts the picture does not show)")
+                                 f"seen at any one offset up to {MAX_OFFSET_S:g} s (fewer than {MIN_PAIRS} pairs): the "
+                                 f"clicks chosen are not the impacts filmed (other sounds, or impacts the picture "
+                                 f"does not show)")
     elif len(shifts) > 1:
         jump = next(pair for pair in pairs if pair.impact_picture - pair.impact_sound != shifts[0])
         suspect, why = "sound", (f"the impacts heard skip one seen: impact {jump.impact_picture} seen pairs with "
@@ -406,15 +413,13 @@ def fuse(picture_impacts, picture_e_covariance, picture_fit, sound_impacts, soun
     elif picture_jumps and not sound_jumps:
         suspect, why = "picture", (f"the picture's successive e jump beyond {JUMP_SE:g} of their standard errors "
                                    f"while the sound's do not: a wrong tracking about an impact")
-    widened = None
-    if combined is not None:
-        birge = math.sqrt(chi2 / dof) if dof else 1.0
-        widened = Estimate(combined.value, max(combined.se * max(birge, abs(z), 1.0), abs(mean_difference) / 2.0))
+    birge = math.sqrt(chi2 / dof) if dof else 1.0
+    widened = Estimate(combined.value, max(combined.se * max(birge, abs(z), 1.0), abs(mean_difference) / 2.0))
     if dof:
         apart = (f"{abs(z):.1f} se apart over {dof} impacts paired (picture − sound {mean_difference:+.3g}; chi2 "
                  f"{chi2:.1f}/{dof}, p = {p:.2g})")
     else:
-        apart = "not paired"
+        apart = f"{abs(z):.1f} se apart (no impact paired)"
     flag = f"sound {e_sound.value:.4g} ± {e_sound.se:.2g} and picture {e_picture.value:.4g} ± {e_picture.se:.2g}, {apart}"
     if suspect:
         flag += f"; the {suspect} is suspect: {why}"
