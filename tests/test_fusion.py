@@ -112,22 +112,37 @@ def test_batch_rows_carry_the_sensors(clip, tmp_path):
     assert row["e"] == pytest.approx(fit["sound_and_picture"]["e"]["value"])
 
 
-def test_a_refused_picture_gives_the_sound_e(tmp_path):
-    """A ball too small to be seen (1.5 mm across at this scale: no ball found in the picture): the sound's e
-    is the result, the headline and the report say so and keep the picture's reason, the tracked table and
-    contact sheet are still written; the sound's e of each impact is within 3 se of the truth."""
+def tiny_ball_clip(directory, seed=2, **track):
+    """A ball too small to be seen (1.5 mm across at this scale), with its sound track; (path, truth, ball)."""
     base = phonesim.PRESETS["yellow_green_tape"]
     config = dataclasses.replace(base.scaled(0.25), duration_s=2.5, drop_height_m=0.5,
                                  hand=dataclasses.replace(base.hand, hold_s=0.3, visible=False),
                                  ball=dataclasses.replace(base.ball, radius_m=0.0008))
-    path = tmp_path / "tiny.mp4"
-    truth = phonesim.render_clip(config, path, seed=2, sound=SoundTrack(offset_s=0.02))
+    path = directory / "tiny.mp4"
+    truth = phonesim.render_clip(config, path, seed=seed, sound=SoundTrack(offset_s=0.02, **track))
     physics = truth.summary["physics"]
-    ball = Ball(radius_m=physics["radius_m"], mass_kg=physics["mass_kg"], type="tennis")
+    return path, truth, Ball(radius_m=physics["radius_m"], mass_kg=physics["mass_kg"], type="tennis")
+
+
+def test_a_refused_picture_and_a_missed_click_is_not_passed_unflagged(tmp_path):
+    """No picture, and the click of impact 2 not heard: the sound alone reads two flights as one (e far off
+    at one impact, right at the next). Its e is the result, but the headline says CHECK: its successive e
+    jump beyond their errors."""
+    path, _, ball = tiny_ball_clip(tmp_path, seed=4, missed_impacts=(2,))
+    result = process_recording(path, ball, Settings())
+    assert result.fusion.source == "sound" and result.fusion.picture_refusal
+    assert "CHECK: the sound's successive e jump" in result.summary()
+
+
+def test_a_refused_picture_gives_the_sound_e(tmp_path):
+    """A ball too small to be seen (1.5 mm across at this scale: no ball found in the picture): the sound's e
+    is the result, the headline and the report say so and keep the picture's reason, the tracked table and
+    contact sheet are still written; the sound's e of each impact is within 3 se of the truth."""
+    path, truth, ball = tiny_ball_clip(tmp_path)
     out = tmp_path / "out"
     result = dropfit("run", path, "--out", out, *ball_options(ball), cwd=tmp_path)
     assert result.returncode == 0, result.stderr
-    assert "from the sound (the picture is refused)" in result.stdout
+    assert "from the sound (the picture is refused)" in result.stdout and "CHECK" not in result.stdout
     fit = json.loads((out / "fit.json").read_text(encoding="utf-8"))
     fusion = fusion_of(fit)
     assert fusion.source == "sound" and fusion.picture_refusal and fusion.e_picture is None

@@ -472,12 +472,16 @@ def measure_sound_and_picture(path, ball=None, settings=None, *, sample_id=None,
     except InputError as error:
         sound_refusal = str(error)
     if picture is None and heard is None:
-        raise InputError(f"{picture_refusal} (its sound track gives no e either: "
-                         f"{str(sound_refusal).split(': ', 1)[-1]})")
+        # the picture's refusal last: its diagnosis and advice end the message
+        sound_reason = str(sound_refusal).split(": ", 1)[-1].split("; ")[0]
+        raise InputError(f"{shown_path(path)}: its sound track gives no e ({sound_reason}), and its picture none: "
+                         f"{str(picture_refusal).split(': ', 1)[-1]}")
     if heard is None:
-        return _with_fusion(picture, fuse.one_sensor("picture", picture.fit, sound_refusal=one_line(sound_refusal)))
+        return _with_fusion(picture, fuse.one_sensor("picture", picture.fit, sound_refusal=one_line(sound_refusal),
+                                                     impacts=picture.impacts, covariance=picture.analysis.e_covariance))
     if picture is None:
-        return _with_fusion(heard, fuse.one_sensor("sound", heard.fit, picture_refusal=picture_refusal))
+        return _with_fusion(heard, fuse.one_sensor("sound", heard.fit, picture_refusal=picture_refusal,
+                                                   impacts=heard.impacts, covariance=heard.analysis.e_covariance))
     seen = picture.impacts
     seen_index, heard_index = pair_impacts(seen["t_touchdown_s"].to_numpy(), heard.impacts["t_touchdown_s"].to_numpy())
     offset = (float("nan"), float("nan"))

@@ -789,7 +789,7 @@ def _section_sound_and_picture(record):
         low, high = estimate.ci95
         return escape(f"{format_pm(estimate.value, estimate.se)} (95 % interval {low:.4g}–{high:.4g})")
 
-    verdict = ("agree" if fusion.agree else "DISAGREE" if fusion.flag else "one sensor")
+    verdict = fusion.verdict
     items = [("e comes from", _text(fusion.source)), ("e", text(fusion.e)), ("e from the picture", text(fusion.e_picture)),
              ("e from the sound", text(fusion.e_sound)), ("e combined", text(fusion.e_combined)),
              ("offset sound − picture", escape(f"{_num(1e3 * fusion.offset_s, '.2f')} ± "

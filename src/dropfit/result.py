@@ -255,7 +255,7 @@ def _fusion_parameters(fusion):
     if fusion is None:
         return
     for name, estimate, description in (
-            ("e", fusion.e, f"headline e, from {fusion.source}" + (f" (DISAGREE: {fusion.flag})" if fusion.flag else "")),
+            ("e", fusion.e, f"headline e, from {fusion.source}" + (f" ({fusion.verdict}: {fusion.flag})" if fusion.flag else "")),
             ("e_picture", fusion.e_picture, "headline e of the picture alone"),
             ("e_sound", fusion.e_sound, "headline e of the sound alone"),
             ("e_combined", fusion.e_combined, "inverse-variance combination of the picture's and the sound's e")):
@@ -302,7 +302,7 @@ def _notes(fit, summary, attrs):
             notes.append(f"{key.replace('_', ' ')}: {attrs[key]}")
     fusion = fit.get("sound_and_picture") or {}
     if fusion.get("flag"):
-        notes.append(f"sound and picture DISAGREE: {fusion['flag']}")
+        notes.append(f"sound and picture, {'DISAGREE' if fusion.get('agree') is False else 'CHECK'}: {fusion['flag']}")
     notes += [f"sound and picture: {note}" for note in fusion.get("notes") or []]
     gravity = summary.get("gravity") or {}
     if gravity.get("source") and gravity.get("source") != "given":
@@ -435,7 +435,7 @@ def _sound_and_picture_text(fusion):
             ("offset sound − picture", f"{_g(1e3 * fusion.offset_s, 4)} ± {_g(1e3 * fusion.offset_se_s, 2)} ms"),
             ("disagreement", f"{_g(fusion.headline_difference_se, 3)} se (paired e, picture − sound); chi2 "
                              f"{_g(fusion.chi2, 4)}/{fusion.dof}, p = {_g(fusion.p_value, 3)}"),
-            ("verdict", "agree" if fusion.agree else f"DISAGREE: {fusion.flag}" if fusion.flag else "one sensor")]
+            ("verdict", fusion.verdict + (f": {fusion.flag}" if fusion.flag else ""))]
     if fusion.picture_refusal:
         rows.append(("picture refused", fusion.picture_refusal))
     if fusion.sound_refusal:

@@ -163,6 +163,15 @@ class SoundAndPicture:
             values[name] = float("nan") if values.get(name) is None else float(values[name])
         return cls(**values)
 
+    @property
+    def verdict(self):
+        """``agree``, ``DISAGREE`` (beyond their errors), ``CHECK`` (one sensor whose e jump) or ``one sensor``."""
+        if self.agree:
+            return "agree"
+        if self.flag:
+            return "DISAGREE" if self.agree is False else "CHECK"
+        return "one sensor"
+
     def headline(self):
         """The words the headline line adds: the sensor(s) the e comes from, and any disagreement."""
         def text(estimate):
@@ -182,7 +191,7 @@ class SoundAndPicture:
             if self.e_sound is not None:
                 words = f"from the picture {text(self.e_picture)}; the sound gives {text(self.e_sound)}"
         if self.flag:
-            words = f"{words}; DISAGREE: {self.flag}"
+            words = f"{words}; {self.verdict}: {self.flag}"
         return words
 
 
@@ -237,24 +246,45 @@ JUMP_SE = 4.0
 JUMP_MIN = 0.02
 
 
+#: ...or a step between successive e exceeds this (1) and as many standard errors: a real ball's e changes by
+#: a few hundredths from one impact to the next.
+JUMP_STEP = 0.1
+
+
 def _jumps(impacts, covariance):
-    """True when a sensor's successive e jump beyond their errors (:data:`JUMP_SE`); False when they do not,
-    or there are fewer than three to tell."""
+    """True when a sensor's successive e jump beyond their errors: a second difference beyond :data:`JUMP_SE`
+    standard errors and :data:`JUMP_MIN`, or a step beyond as many and :data:`JUMP_STEP` (covariance kept);
+    False when they do not, or there are too few to tell."""
     e = impacts["e"].to_numpy(float)
     keep = np.isfinite(e) & np.isfinite(impacts["e_se"].to_numpy(float))
     if "in_fit" in impacts:
         keep &= impacts["in_fit"].astype(bool).to_numpy()
     rows = np.flatnonzero(keep)
-    rows = rows[np.r_[True, np.diff(rows) == 1]] if rows.size else rows
-    if rows.size < 3:
+    if rows.size < 2:
         return False
-    second = np.zeros((rows.size - 2, rows.size))
-    for k in range(rows.size - 2):
-        second[k, k:k + 3] = (1.0, -2.0, 1.0)
-    values = second @ e[rows]
-    variance = np.diag(second @ np.nan_to_num(np.asarray(covariance, float)[np.ix_(rows, rows)]) @ second.T)
-    return bool(np.any((np.abs(values) > JUMP_SE * np.sqrt(np.clip(variance, 1e-30, None)))
-                       & (np.abs(values) > JUMP_MIN)))
+    covariance = np.nan_to_num(np.asarray(covariance, float)[np.ix_(rows, rows)])
+    for order, least in ((1, JUMP_STEP), (2, JUMP_MIN)):
+        if rows.size <= order:
+            continue
+        operator = np.diff(np.eye(rows.size), n=order, axis=0)
+        values = operator @ e[rows]
+        variance = np.diag(operator @ covariance @ operator.T)
+        # only differences of neighbouring impacts (no impact between them left out)
+        neighbours = rows[order:] - rows[:-order] == order
+        if np.any(neighbours & (np.abs(values) > JUMP_SE * np.sqrt(np.clip(variance, 1e-30, None)))
+                  & (np.abs(values) > least)):
+            return True
+    return False
+
+
+def jump_flag(sensor, impacts, covariance):
+    """The words of a sensor's e that jump (:func:`_jumps`), or None."""
+    if not _jumps(impacts, covariance):
+        return None
+    shown = ", ".join(f"{value:.3g}" for value in impacts["e"].to_numpy(float) if np.isfinite(value))
+    cause = ("a click missed or one that is not an impact" if sensor == "sound" else
+             "a wrong tracking about an impact")
+    return f"the {sensor}'s successive e jump beyond their errors ({shown}): {cause}?"
 
 
 def combined_series(picture_impacts, picture_e_covariance, sound_impacts, sound_e_covariance, picture_index,
@@ -441,11 +471,13 @@ def _in_fit(impacts, row):
     return "in_fit" not in impacts or bool(impacts["in_fit"].iloc[row])
 
 
-def one_sensor(source, fit, picture_refusal=None, sound_refusal=None, notes=()):
+def one_sensor(source, fit, picture_refusal=None, sound_refusal=None, notes=(), impacts=None, covariance=None):
     """The record of a video measured by one sensor only: ``source`` (``picture`` or ``sound``) gives the e
-    and the other's refusal (its reason, whole) is kept."""
+    and the other's refusal (its reason, whole) is kept; with its ``impacts`` and their e ``covariance``, e
+    that jump are flagged (:func:`jump_flag`)."""
     e = Estimate.of(fit["restitution"]["e"])
     notes = list(notes)
+    flag = jump_flag(source, impacts, covariance) if impacts is not None else None
     if source == "sound":
         notes.append("the picture gives no e" + (f": {picture_refusal}" if picture_refusal else "")
                      + "; the e is the sound's (impact times only: heights from the flight times and g)")
@@ -453,6 +485,7 @@ def one_sensor(source, fit, picture_refusal=None, sound_refusal=None, notes=()):
         notes.append("the sound gives no e" + (f": {sound_refusal}" if sound_refusal else "")
                      + "; the e is the picture's")
     return SoundAndPicture(source, e, e if source == "picture" else None, e if source == "sound" else None,
+                           flag=flag, suspect=source if flag else None, suspect_why=flag,
                            picture_refusal=picture_refusal, sound_refusal=sound_refusal, notes=tuple(notes))
 
 
