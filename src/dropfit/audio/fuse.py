@@ -11,10 +11,11 @@ of a millisecond (:mod:`dropfit.audio.onsets`). Here, pure (no files):
 2. :func:`fuse` — per paired impact, e of both with the inverse-variance weighted combination and the
    difference in standard errors; the agreement of the two sensors by a chi-square of the paired e
    (with both analyses' covariances) and of their headline e; the result's e: the combination where
-   they agree; where they disagree beyond their errors, the flag, and either the e of the sensor that
-   is not suspect (one can tell: a sound whose clicks do not pair with the impacts seen, or whose
-   flight-time ratios scatter far beyond their errors — a missed or spurious click —, or a picture
-   whose impacts do) or the combination with its interval widened to cover both.
+   they agree (the restitution models fitted to every impact's combined e); where they disagree beyond
+   their errors, the flag, and either the e of the sensor that is not suspect, where one can tell (a
+   sound whose clicks pair with none of the impacts seen, or whose pairs' numbers jump — a click not
+   heard —, or a sensor whose successive e jump beyond their errors while the other's do not — a missed
+   click, a wrong tracking), or the combination with its interval widened to cover both.
 
 A sensor that fails (the picture refused, the sound silent or noisy) leaves the other's e as the result,
 and the record says so and why (:func:`one_sensor`).
@@ -26,18 +27,15 @@ import math
 from dataclasses import asdict, dataclass, field
 
 import numpy as np
-import pandas as pd
 
 from ..numerics import chi2_tail
-from ..restitution import Z95
+from ..restitution import Z95, estimate
 
 #: Below this p-value of the chi-square of their agreement the sound and the picture disagree beyond their
 #: errors (their 95 % intervals): flagged in the headline.
 AGREEMENT_P = 0.05
 #: Fewer pairs than this do not fit an offset: one pair always matches at some offset.
 MIN_PAIRS = 2
-
-SENSORS = ("picture", "sound")
 
 
 @dataclass(frozen=True)
@@ -50,11 +48,11 @@ class Estimate:
 
     @property
     def ci95(self):
-        return (self.value - Z95 * self.se, self.value + Z95 * self.se)
+        return tuple(self.record()["ci95"])
 
     def record(self):
-        return {"value": _number(self.value), "se": _number(self.se), "ci95": [_number(b) for b in self.ci95],
-                "unit": self.unit}
+        """As every estimate of the fit result (:func:`dropfit.restitution.estimate`)."""
+        return estimate(self.value, self.se, self.unit)
 
     @classmethod
     def of(cls, record):
@@ -487,12 +485,6 @@ def one_sensor(source, fit, picture_refusal=None, sound_refusal=None, notes=(), 
     return SoundAndPicture(source, e, e if source == "picture" else None, e if source == "sound" else None,
                            flag=flag, suspect=source if flag else None, suspect_why=flag,
                            picture_refusal=picture_refusal, sound_refusal=sound_refusal, notes=tuple(notes))
-
-
-def pairs_table(fusion):
-    """The pairs as a table (one row per impact seen and heard)."""
-    return pd.DataFrame([asdict(pair) for pair in fusion.pairs],
-                        columns=[name for name in ImpactPair.__dataclass_fields__])
 
 
 def has_sound_track(path):
