@@ -170,6 +170,23 @@ def test_a_silent_sound_track_gives_the_picture_e(tmp_path):
     assert any("the sound gives no e" in note for note in result.notes)
 
 
+def test_a_bug_in_the_sound_costs_not_the_picture(clip, monkeypatch):
+    """A bug met analysing the sound track (here forced) leaves the picture's e as the result, the bug named
+    in the record, not a traceback for a video whose picture measures."""
+    import dropfit.pipeline
+
+    path, _, ball = clip
+
+    def broken(*args, **kwargs):
+        raise ZeroDivisionError("forced")
+
+    monkeypatch.setattr(dropfit.pipeline, "_sound_result", broken)
+    result = process_recording(path, ball, Settings())
+    assert result.fusion.source == "picture"
+    assert "internal error in dropfit while analysing its sound track (ZeroDivisionError: forced)" in \
+        result.fusion.sound_refusal
+
+
 def test_a_wrong_tracking_is_flagged_in_the_headline(clip):
     """The picture's heights in the flight after impact 2 squeezed towards the floor by a fifth (a tracking
     that follows something else there, as the circle 60 px beside a tennis ball): its e2 reads low and e3

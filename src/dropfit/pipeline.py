@@ -471,6 +471,10 @@ def measure_sound_and_picture(path, ball=None, settings=None, *, sample_id=None,
         heard = _sound_result(path, sound, attrs, settings, ball)
     except InputError as error:
         sound_refusal = str(error)
+    except Exception as error:  # noqa: BLE001 — a bug in the sound's analysis must not cost the picture's e
+        if picture is None:
+            raise
+        sound_refusal = _internal_error(path, "its sound track", error)
     if picture is None and heard is None:
         # the picture's refusal last: its diagnosis and advice end the message
         sound_reason = str(sound_refusal).split(": ", 1)[-1].split("; ")[0]
@@ -495,9 +499,21 @@ def measure_sound_and_picture(path, ball=None, settings=None, *, sample_id=None,
             notes.append("the offset is that of one impact paired: not checked by a second")
         # (the picture's release is not given to the sound: its first e would share the picture's error of the
         # release, not independent of the picture's first e, and the release's error is not carried)
-    fusion = fuse.fuse(seen, picture.analysis.e_covariance, picture.fit, heard.impacts, heard.analysis.e_covariance,
-                       heard.fit, seen_index, heard_index, offset, notes)
+    try:
+        fusion = fuse.fuse(seen, picture.analysis.e_covariance, picture.fit, heard.impacts,
+                           heard.analysis.e_covariance, heard.fit, seen_index, heard_index, offset, notes)
+    except Exception as error:  # noqa: BLE001 — as above: the picture's e stands
+        fusion = fuse.one_sensor("picture", picture.fit, sound_refusal=_internal_error(
+            path, "combining its sound and picture", error))
     return _with_fusion(picture, fusion)
+
+
+def _internal_error(path, what, error):
+    """The words of a bug met in ``what`` of a recording (kept in its record, the other sensor's e stands)."""
+    from .errors import shown
+
+    return (f"{shown_path(path)}: internal error in dropfit while analysing {what} ({type(error).__name__}: "
+            f"{shown(error)}); please report it with this file")
 
 
 def analyse_recording(recording, *, ball_radius_m=None, ball_mass_kg=None, ball_type=None, sample_id=None,
