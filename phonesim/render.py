@@ -391,7 +391,8 @@ def render_clip(config: ClipConfig, path: str | Path, seed: int = 0, sound=None)
     if sound is not None:
         from .sound import render_track
 
-        samples, clicks = render_track(renderer.motion.truth.impacts, renderer.motion.duration_s, sound, seed)
+        samples, clicks = render_track(renderer.motion.truth.impacts, renderer.motion.duration_s, sound, seed,
+                                       config.timing.slow_motion)
         track = (sound, samples)
     with ClipWriter(path, width, height, config.rotation_deg, renderer.schedule.container_fps,
                     renderer.schedule.time_base, config.codec, config.crf, config.encoder_preset,

@@ -62,7 +62,7 @@ class SoundTrack:
     silent: bool = False
 
 
-def render_track(impacts, duration_s, track, seed=0):
+def render_track(impacts, duration_s, track, seed=0, slow_motion=1):
     """The samples (mono, full scale 1, first sample at clip time 0) and the truth of every click.
 
     Parameters
@@ -73,12 +73,16 @@ def render_track(impacts, duration_s, track, seed=0):
         Length of the track (s).
     track : SoundTrack
     seed : int
+    slow_motion : int
+        The clip presents its captures this many times slower (:class:`phonesim.FrameTiming`): the sound
+        is slowed with it (stretched in time, every frequency lowered), as phones store slow motion.
 
     Returns
     -------
     (numpy.ndarray, pandas.DataFrame)
         The samples, and one row per click written: ``impact`` (0 for an extra click), ``t_touchdown_s``,
-        ``onset_s`` (clip clock, s).
+        ``onset_s`` (s, the clip's presentation clock: a slow-motion clip's onsets are ``slow_motion`` times
+        later than on the capture clock).
     """
     impacts = impacts.reset_index(drop=True)
     heard = impacts[~impacts["impact"].isin(track.missed_impacts)]
@@ -108,6 +112,10 @@ def render_track(impacts, duration_s, track, seed=0):
         samples = np.clip(np.random.default_rng(seed).normal(0.0, options.noise_level, samples.size), -1.0, 1.0)
     truth = pd.DataFrame({"impact": numbers, "t_touchdown_s": times - track.offset_s,
                           "onset_s": sound.onsets_s[:times.size] if times.size else times})
+    if slow_motion != 1:  # the same samples played slower: stretched onto slow_motion times as many
+        stretched = np.arange(samples.size * slow_motion) / slow_motion
+        samples = np.interp(stretched, np.arange(samples.size), samples)
+        truth["onset_s"] = truth["onset_s"] * slow_motion
     return samples, truth
 
 

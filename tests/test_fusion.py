@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+from fractions import Fraction
 
 import numpy as np
 import pytest
@@ -220,6 +221,55 @@ def test_a_missed_click_is_flagged(tmp_path):
     assert fusion.e == fusion.e_picture
     reference = result.fit["restitution"]["reference_impact"]
     assert abs(fusion.e.value - truth.impacts["e"].iloc[reference - 1]) < 3 * fusion.e.se
+
+
+SLOW_MOTION = dict(capture_fps=Fraction(120), slow_motion=4)
+
+
+def test_a_slow_motion_clip_s_sound_is_put_on_the_capture_clock(tmp_path):
+    """120 fps stored at 30 fps, its sound slowed with it (as phones store slow motion; the clicks 4 times
+    later on the file's clock and 4 times lower): the capture rate told by gravity puts the sound on the
+    capture clock, so the impacts pair (none did on the file's clock: 0.3 s apart at most), the offset is the
+    truth's within 3 se, and the sound's e of each paired impact is refsim's within 3 se."""
+    base = phonesim.PRESETS["yellow_green_tape"]
+    config = dataclasses.replace(base.scaled(0.4), duration_s=2.2, drop_height_m=0.5,
+                                 hand=dataclasses.replace(base.hand, hold_s=0.3),
+                                 timing=dataclasses.replace(base.timing, **SLOW_MOTION))
+    path = tmp_path / "slow.mp4"
+    truth = phonesim.render_clip(config, path, seed=0, sound=SoundTrack(offset_s=0.01))
+    physics = truth.summary["physics"]
+    ball = Ball(radius_m=physics["radius_m"], mass_kg=physics["mass_kg"], type="tennis")
+    fusion = process_recording(path, ball, Settings()).fusion
+    assert fusion.source == "sound and picture" and fusion.agree
+    assert abs(fusion.offset_s - 0.01 - TRAVEL_S) < 3 * fusion.offset_se_s
+    paired = [pair for pair in fusion.pairs if np.isfinite(pair.e_sound)]
+    assert len(paired) >= 3
+    for pair in paired:
+        assert abs(pair.e_sound - truth.impacts["e"].iloc[pair.impact_picture - 1]) < 3 * pair.e_sound_se
+
+
+def test_a_slow_motion_clip_refused_by_its_picture_takes_the_capture_rate_given(tmp_path):
+    """The picture refused (a ball too small to see) in a slow-motion clip: with --capture-fps the sound is
+    still put on the capture clock, and its e (which needs the flight times in s: the contact time and the
+    drag are subtracted from them) are refsim's within 3 se."""
+    base = phonesim.PRESETS["yellow_green_tape"]
+    config = dataclasses.replace(base.scaled(0.25), duration_s=2.2, drop_height_m=0.5,
+                                 hand=dataclasses.replace(base.hand, hold_s=0.3, visible=False),
+                                 ball=dataclasses.replace(base.ball, radius_m=0.0008),
+                                 timing=dataclasses.replace(base.timing, **SLOW_MOTION))
+    path = tmp_path / "slow_tiny.mp4"
+    truth = phonesim.render_clip(config, path, seed=5, sound=SoundTrack(offset_s=0.01))
+    physics = truth.summary["physics"]
+    ball = Ball(radius_m=physics["radius_m"], mass_kg=physics["mass_kg"], type="tennis")
+    result = process_recording(path, ball, Settings(capture_fps=120.0))
+    assert result.fusion.source == "sound"
+    heard = result.impacts[np.isfinite(result.impacts["e"])]
+    assert len(heard) >= 3
+    onsets = truth.sound["onset_s"].to_numpy() / 4
+    for row in heard.itertuples():
+        n = int(np.argmin(np.abs(onsets - row.t_touchdown_s)))
+        assert abs(row.t_touchdown_s - onsets[n]) < 0.5e-3
+        assert abs(row.e - truth.impacts["e"].iloc[int(truth.sound["impact"].iloc[n]) - 1]) < 3 * row.e_se
 
 
 @pytest.mark.slow

@@ -468,7 +468,10 @@ def measure_sound_and_picture(path, ball=None, settings=None, *, sample_id=None,
     heard = sound = None
     try:
         sound = read_sound(path)
-        heard = _sound_result(path, sound, attrs, settings, ball)
+        # the picture refused, a capture rate given still puts a slow-motion clip's sound on the capture clock
+        given = fuse.slow_motion_factor(path, settings.capture_fps) if picture is None else 1.0
+        heard = _sound_result(path, fuse.on_capture_clock(sound, given) if given != 1.0 else sound, attrs, settings,
+                              ball)
     except InputError as error:
         sound_refusal = str(error)
     except Exception as error:  # noqa: BLE001 — a bug in the sound's analysis must not cost the picture's e
@@ -490,6 +493,31 @@ def measure_sound_and_picture(path, ball=None, settings=None, *, sample_id=None,
     seen_index, heard_index = pair_impacts(seen["t_touchdown_s"].to_numpy(), heard.impacts["t_touchdown_s"].to_numpy())
     offset = (float("nan"), float("nan"))
     notes = []
+    told = picture.trajectory.attrs
+    slowing = fuse.slow_motion_factor(path, told.get("capture_fps")
+                                      if told.get("capture_fps_source", "container") != "container" else None)
+    if slowing != 1.0:  # slow motion: its sound is slowed with the frames, and belongs on the capture clock
+        why = None
+        try:
+            captured = _sound_result(path, fuse.on_capture_clock(sound, slowing), attrs, settings, ball)
+        except InputError as error:
+            captured, why = None, str(error)
+        # the file's clock only where it pairs the impacts seen and the capture clock pairs fewer (a sound
+        # recorded unslowed)
+        index = (pair_impacts(seen["t_touchdown_s"].to_numpy(), captured.impacts["t_touchdown_s"].to_numpy())
+                 if captured is not None else None)
+        if captured is not None and (index[0].size >= seen_index.size or seen_index.size < fuse.MIN_PAIRS):
+            heard, (seen_index, heard_index) = captured, index
+            notes.append(f"slow motion ({slowing:g} times slower than captured): the sound is analysed on the "
+                         f"capture clock (its samples {slowing:g} times faster)")
+        elif captured is None and seen_index.size < fuse.MIN_PAIRS:  # neither clock: the sound gives no e
+            return _with_fusion(picture, fuse.one_sensor(
+                "picture", picture.fit, sound_refusal=f"{one_line(why)} (on the capture clock of this slow-motion "
+                                                      f"clip, {slowing:g} times faster than the file's)",
+                impacts=picture.impacts, covariance=picture.analysis.e_covariance))
+        else:
+            notes.append(f"slow motion ({slowing:g} times): the sound on the capture clock pairs fewer impacts; "
+                         f"it is analysed on the file's clock (recorded unslowed)")
     if seen_index.size:
         offset = fuse.fit_offset(seen["t_touchdown_s"].to_numpy()[seen_index],
                                  seen["t_touchdown_se_s"].to_numpy()[seen_index],

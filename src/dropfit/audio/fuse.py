@@ -497,3 +497,28 @@ def has_sound_track(path):
             return len(container.streams.audio) > 0
     except (av.FFmpegError, OSError, ValueError):
         return False
+
+
+def slow_motion_factor(path, capture_fps=None):
+    """How many times slower than captured the video ``path`` presents its frames: ``capture_fps`` (given, or
+    told by gravity) over the file's frame rate; 1 without a capture rate or within 5 % of the file's. Its
+    sound track is slowed with the frames, as phones store slow motion."""
+    import av
+
+    if not capture_fps:
+        return 1.0
+    try:
+        with av.open(str(path)) as container:
+            rate = container.streams.video[0].average_rate
+    except (av.FFmpegError, OSError, IndexError):
+        return 1.0
+    factor = float(capture_fps) / float(rate) if rate else 1.0
+    return factor if np.isfinite(factor) and factor > 1.05 else 1.0
+
+
+def on_capture_clock(sound, factor):
+    """A slow-motion video's sound (:class:`dropfit.audio.decode.Sound`) on the capture clock: the same samples,
+    ``factor`` times as many per second, its start ``factor`` times earlier."""
+    import dataclasses
+
+    return dataclasses.replace(sound, rate_hz=sound.rate_hz * factor, start_s=sound.start_s / factor)
