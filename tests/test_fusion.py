@@ -26,16 +26,32 @@ from helpers import dropfit
 TRAVEL_S = 0.3 / 343.0
 
 
-def clip_with_sound(directory, seed=0, offset_s=0.037, downscale=0.4, name="clip.mp4", **track):
-    """A 2.5 s yellow tennis ball clip (phonesim's yellow_green_tape, dropped from 0.5 m after 0.3 s in the
-    hand), with its sound track; (path, truth, ball)."""
+def clip_with_sound(directory, seed=0, offset_s=0.037, downscale=0.4, name="clip.mp4", duration_s=2.5, tiny=False,
+                    timing=None, drop_height_m=0.5, **track):
+    """A yellow tennis ball clip (phonesim's yellow_green_tape, dropped from 0.5 m after 0.3 s in the hand),
+    with its sound track; ``tiny``: a ball too small to be seen (1.6 mm across) and no hand; ``timing``:
+    changes to its frame timing. (path, truth, ball)."""
     base = phonesim.PRESETS["yellow_green_tape"]
-    config = dataclasses.replace(base.scaled(downscale), duration_s=2.5, drop_height_m=0.5,
-                                 hand=dataclasses.replace(base.hand, hold_s=0.3))
+    changes = dict(ball=dataclasses.replace(base.ball, radius_m=0.0008)) if tiny else {}
+    config = dataclasses.replace(base.scaled(downscale), duration_s=duration_s, drop_height_m=drop_height_m,
+                                 hand=dataclasses.replace(base.hand, hold_s=0.3, visible=not tiny),
+                                 timing=dataclasses.replace(base.timing, **(timing or {})), **changes)
     path = directory / name
     truth = phonesim.render_clip(config, path, seed=seed, sound=SoundTrack(offset_s=offset_s, **track))
     physics = truth.summary["physics"]
     return path, truth, Ball(radius_m=physics["radius_m"], mass_kg=physics["mass_kg"], type="tennis")
+
+
+def assert_sound_e_right(impacts, truth, slow_motion=1):
+    """Every impact heard with an e is timed at a click's true onset (0.5 ms; on the capture clock) and its e
+    is refsim's for that impact within 3 se."""
+    heard = impacts[np.isfinite(impacts["e"])]
+    assert len(heard) >= 3
+    onsets = truth.sound["onset_s"].to_numpy() / slow_motion
+    for row in heard.itertuples():
+        n = int(np.argmin(np.abs(onsets - row.t_touchdown_s)))
+        assert abs(row.t_touchdown_s - onsets[n]) < 0.5e-3
+        assert abs(row.e - truth.impacts["e"].iloc[int(truth.sound["impact"].iloc[n]) - 1]) < 3 * row.e_se
 
 
 def fusion_of(fit):
@@ -114,15 +130,8 @@ def test_batch_rows_carry_the_sensors(clip, tmp_path):
 
 
 def tiny_ball_clip(directory, seed=2, **track):
-    """A ball too small to be seen (1.5 mm across at this scale), with its sound track; (path, truth, ball)."""
-    base = phonesim.PRESETS["yellow_green_tape"]
-    config = dataclasses.replace(base.scaled(0.25), duration_s=2.5, drop_height_m=0.5,
-                                 hand=dataclasses.replace(base.hand, hold_s=0.3, visible=False),
-                                 ball=dataclasses.replace(base.ball, radius_m=0.0008))
-    path = directory / "tiny.mp4"
-    truth = phonesim.render_clip(config, path, seed=seed, sound=SoundTrack(offset_s=0.02, **track))
-    physics = truth.summary["physics"]
-    return path, truth, Ball(radius_m=physics["radius_m"], mass_kg=physics["mass_kg"], type="tennis")
+    """A ball too small to be seen at 0.25 scale, with its sound track; (path, truth, ball)."""
+    return clip_with_sound(directory, seed=seed, offset_s=0.02, downscale=0.25, name="tiny.mp4", tiny=True, **track)
 
 
 def test_a_refused_picture_and_a_missed_click_is_not_passed_unflagged(tmp_path):
@@ -149,14 +158,7 @@ def test_a_refused_picture_gives_the_sound_e(tmp_path):
     assert fusion.source == "sound" and fusion.picture_refusal and fusion.e_picture is None
     assert "picture refused" in (out / "report.html").read_text(encoding="utf-8")
     assert (out / "track.csv").exists() and (out / "contact_sheet.png").exists()
-    impacts = process_recording(path, ball, Settings()).impacts
-    heard = impacts[np.isfinite(impacts["e"])]
-    assert len(heard) >= 3
-    onsets = truth.sound["onset_s"].to_numpy()
-    for row in heard.itertuples():
-        n = int(np.argmin(np.abs(onsets - row.t_touchdown_s)))
-        assert abs(row.t_touchdown_s - onsets[n]) < 0.5e-3
-        assert abs(row.e - truth.impacts["e"].iloc[int(truth.sound["impact"].iloc[n]) - 1]) < 3 * row.e_se
+    assert_sound_e_right(process_recording(path, ball, Settings()).impacts, truth)
 
 
 def test_a_silent_sound_track_gives_the_picture_e(tmp_path):
@@ -231,14 +233,7 @@ def test_a_slow_motion_clip_s_sound_is_put_on_the_capture_clock(tmp_path):
     later on the file's clock and 4 times lower): the capture rate told by gravity puts the sound on the
     capture clock, so the impacts pair (none did on the file's clock: 0.3 s apart at most), the offset is the
     truth's within 3 se, and the sound's e of each paired impact is refsim's within 3 se."""
-    base = phonesim.PRESETS["yellow_green_tape"]
-    config = dataclasses.replace(base.scaled(0.4), duration_s=2.2, drop_height_m=0.5,
-                                 hand=dataclasses.replace(base.hand, hold_s=0.3),
-                                 timing=dataclasses.replace(base.timing, **SLOW_MOTION))
-    path = tmp_path / "slow.mp4"
-    truth = phonesim.render_clip(config, path, seed=0, sound=SoundTrack(offset_s=0.01))
-    physics = truth.summary["physics"]
-    ball = Ball(radius_m=physics["radius_m"], mass_kg=physics["mass_kg"], type="tennis")
+    path, truth, ball = clip_with_sound(tmp_path, offset_s=0.01, name="slow.mp4", duration_s=2.2, timing=SLOW_MOTION)
     fusion = process_recording(path, ball, Settings()).fusion
     assert fusion.source == "sound and picture" and fusion.agree
     assert abs(fusion.offset_s - 0.01 - TRAVEL_S) < 3 * fusion.offset_se_s
@@ -252,24 +247,11 @@ def test_a_slow_motion_clip_refused_by_its_picture_takes_the_capture_rate_given(
     """The picture refused (a ball too small to see) in a slow-motion clip: with --capture-fps the sound is
     still put on the capture clock, and its e (which needs the flight times in s: the contact time and the
     drag are subtracted from them) are refsim's within 3 se."""
-    base = phonesim.PRESETS["yellow_green_tape"]
-    config = dataclasses.replace(base.scaled(0.25), duration_s=2.2, drop_height_m=0.5,
-                                 hand=dataclasses.replace(base.hand, hold_s=0.3, visible=False),
-                                 ball=dataclasses.replace(base.ball, radius_m=0.0008),
-                                 timing=dataclasses.replace(base.timing, **SLOW_MOTION))
-    path = tmp_path / "slow_tiny.mp4"
-    truth = phonesim.render_clip(config, path, seed=5, sound=SoundTrack(offset_s=0.01))
-    physics = truth.summary["physics"]
-    ball = Ball(radius_m=physics["radius_m"], mass_kg=physics["mass_kg"], type="tennis")
+    path, truth, ball = clip_with_sound(tmp_path, seed=5, offset_s=0.01, downscale=0.25, name="slow_tiny.mp4",
+                                        duration_s=2.2, tiny=True, timing=SLOW_MOTION)
     result = process_recording(path, ball, Settings(capture_fps=120.0))
     assert result.fusion.source == "sound"
-    heard = result.impacts[np.isfinite(result.impacts["e"])]
-    assert len(heard) >= 3
-    onsets = truth.sound["onset_s"].to_numpy() / 4
-    for row in heard.itertuples():
-        n = int(np.argmin(np.abs(onsets - row.t_touchdown_s)))
-        assert abs(row.t_touchdown_s - onsets[n]) < 0.5e-3
-        assert abs(row.e - truth.impacts["e"].iloc[int(truth.sound["impact"].iloc[n]) - 1]) < 3 * row.e_se
+    assert_sound_e_right(result.impacts, truth, slow_motion=4)
 
 
 @pytest.mark.slow
@@ -282,14 +264,9 @@ def test_fused_e_covers_the_truth_at_its_rate(tmp_path):
     for seed in seeds:
         rng = np.random.default_rng(seed)
         offset = float(rng.uniform(-0.06, 0.06))
-        base = phonesim.PRESETS["yellow_green_tape"]
-        config = dataclasses.replace(base.scaled(0.4), duration_s=2.5, drop_height_m=float(rng.uniform(0.4, 0.6)),
-                                     hand=dataclasses.replace(base.hand, hold_s=0.3))
-        path = tmp_path / f"seed{seed}.mp4"
-        truth = phonesim.render_clip(config, path, seed=seed, sound=SoundTrack(offset_s=offset))
-        physics = truth.summary["physics"]
-        fusion = process_recording(path, Ball(radius_m=physics["radius_m"], mass_kg=physics["mass_kg"],
-                                              type="tennis"), Settings()).fusion
+        path, truth, ball = clip_with_sound(tmp_path, seed=seed, offset_s=offset, name=f"seed{seed}.mp4",
+                                            drop_height_m=float(rng.uniform(0.4, 0.6)))
+        fusion = process_recording(path, ball, Settings()).fusion
         assert fusion.source == "sound and picture"
         low, high = fusion.e.ci95
         covered += low < reference_truth(fusion, truth) < high
