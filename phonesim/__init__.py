@@ -9,8 +9,10 @@ from .config import (BallStyle, CameraSetup, Checkerboard, ClipConfig, FrameTimi
                      SceneStyle, SensorEffects)
 from .presets import PRESET_SUFFIX, PRESETS
 from .render import Truth, iter_frames, render_clip, truth_paths
+from .sound import SoundTrack
 
 __all__ = [
     "BallStyle", "CameraSetup", "Checkerboard", "ClipConfig", "FrameTiming", "HandStyle", "Marker", "Ruler",
     "SceneStyle", "SensorEffects", "PRESETS", "PRESET_SUFFIX", "Truth", "iter_frames", "render_clip", "truth_paths",
+    "SoundTrack",
 ]

@@ -197,6 +197,10 @@ class FrameTiming:
     max_blur_samples : int
         Most sub-frame samples averaged per frame (the number used grows with
         the ball's motion during the exposure, one per ~px).
+    slow_motion : int
+        The container presents the captures this many times slower than
+        they were taken (4: 120 fps captured, stored at 30 fps, as phones
+        store slow motion); its sound track is slowed with it.
     """
 
     capture_fps: Fraction | float = Fraction(30)
@@ -205,6 +209,7 @@ class FrameTiming:
     drop_probability: float = 0.0
     exposure_s: float = 0.0
     max_blur_samples: int = 24
+    slow_motion: int = 1
 
 
 @dataclass(frozen=True)

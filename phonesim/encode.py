@@ -42,11 +42,13 @@ class ClipWriter:
         libx264 / libx265 speed preset.
     bit_depth : int
         Bits per sample, 8 or 10 (libx265 only: a phone's HDR video is 10-bit HEVC).
+    sound : (phonesim.sound.SoundTrack, numpy.ndarray), optional
+        A sound track and its samples (:func:`phonesim.sound.render_track`), muxed beside the frames.
     """
 
     def __init__(self, path, width_px: int, height_px: int, rotation_deg: int, container_fps: Fraction,
                  time_base: Fraction, codec: str = "libx264", crf: int = 18, encoder_preset: str = "veryfast",
-                 bit_depth: int = 8):
+                 bit_depth: int = 8, sound=None):
         if rotation_deg % 90:
             raise ValueError("rotation_deg must be a multiple of 90")
         if rotation_deg % 360 and constant_rate_container(path):
@@ -77,6 +79,13 @@ class ClipWriter:
             self.stream.codec_context.bit_rate = int(0.3 * stored_w * stored_h * float(container_fps))
         if self.rotation_deg:
             self.stream.set_display_rotation(self.rotation_deg)
+        # a sound track (phonesim.sound.SoundTrack, samples): its stream added before anything is muxed, its
+        # samples encoded after the frames
+        self.sound = sound
+        if sound is not None:
+            from .sound import add_track_stream
+
+            self.sound_stream = add_track_stream(self.container, sound[0])
 
     def write(self, displayed_rgb: np.ndarray, pts: int) -> None:
         """Encode one displayed frame (uint8 RGB, rows x cols x 3) at timestamp ``pts`` (ticks)."""
@@ -90,6 +99,10 @@ class ClipWriter:
         """Flush the encoder and close the file."""
         for packet in self.stream.encode():
             self.container.mux(packet)
+        if self.sound is not None:
+            from .sound import write_track
+
+            write_track(self.container, self.sound_stream, self.sound[1], self.sound[0])
         self.container.close()
 
     def __enter__(self):

@@ -67,11 +67,15 @@ class Truth:
     impacts : pandas.DataFrame
         refsim's impacts (``t_touchdown_s``, ``t_liftoff_s``, ``v_in_m_s``,
         ``v_out_m_s``, ``e`` = v_out/v_in, ``h_before_m``, ``h_after_m``, ...).
+    sound : pandas.DataFrame or None
+        With a sound track, one row per click (``impact``, 0 for a click that is not one;
+        ``t_touchdown_s``; ``onset_s`` on the clip clock).
     """
 
     summary: dict
     frames: pd.DataFrame
     impacts: pd.DataFrame
+    sound: pd.DataFrame | None = None
 
     def write(self, json_path: str | Path, csv_path: str | Path) -> None:
         """Write the summary (with the impacts) as JSON and the frames as CSV."""
@@ -366,13 +370,15 @@ def iter_frames(config: ClipConfig, seed: int = 0) -> Iterator[tuple[dict, np.nd
     yield from ClipRenderer(config, seed).frames()
 
 
-def render_clip(config: ClipConfig, path: str | Path, seed: int = 0) -> Truth:
+def render_clip(config: ClipConfig, path: str | Path, seed: int = 0, sound=None) -> Truth:
     """Render ``config`` into the video ``path`` and write the truth beside it.
 
     Frames are streamed to the encoder one by one (memory does not grow with
     the clip's length).  The container follows the suffix (.mp4/.mov/.mkv:
     timestamps per frame and a display matrix; .avi: constant rate, no
     rotation).  Writes ``<stem>.truth.json`` and ``<stem>.frames.csv`` too.
+    With ``sound`` (:class:`phonesim.sound.SoundTrack`) a sound track is muxed in: a click at each
+    contact (:mod:`phonesim.sound`), its clicks' truth in the JSON's ``sound`` and in ``Truth.sound``.
 
     Returns
     -------
@@ -381,14 +387,25 @@ def render_clip(config: ClipConfig, path: str | Path, seed: int = 0) -> Truth:
     renderer = ClipRenderer(config, seed, constant_rate=constant_rate_container(path))
     rows = []
     width, height = config.frame_size_px
+    clicks = track = None
+    if sound is not None:
+        from .sound import render_track
+
+        samples, clicks = render_track(renderer.motion.truth.impacts, renderer.motion.duration_s, sound, seed,
+                                       config.timing.slow_motion)
+        track = (sound, samples)
     with ClipWriter(path, width, height, config.rotation_deg, renderer.schedule.container_fps,
                     renderer.schedule.time_base, config.codec, config.crf, config.encoder_preset,
-                    config.bit_depth) as writer:
+                    config.bit_depth, track) as writer:
         for row, picture in renderer.frames():
             writer.write(picture, row["pts"])
             rows.append(row)
     frames = pd.DataFrame(rows)
-    truth = Truth(renderer.summary(len(frames)), frames, renderer.motion.truth.impacts.copy())
+    truth = Truth(renderer.summary(len(frames)), frames, renderer.motion.truth.impacts.copy(), clicks)
+    if clicks is not None:
+        truth.summary["sound"] = {"offset_s": sound.offset_s, "codec": sound.codec, "rate_hz": sound.rate_hz,
+                                  "missed_impacts": list(sound.missed_impacts), "silent": sound.silent,
+                                  "clicks": clicks.to_dict(orient="records")}
     truth.summary["clip"]["path"] = Path(path).name
     truth.write(*truth_paths(path))
     return truth

@@ -36,7 +36,7 @@ class FrameSchedule:
     is_duplicate : ndarray of bool
         True for a repeat of the previous frame's capture.
     container_fps : Fraction
-        Nominal frame rate of the container (Hz).
+        Nominal frame rate of the container (Hz; a slow-motion clip's is its capture rate over the slowing).
     capture_fps : Fraction
         True capture rate (Hz).
     """
@@ -67,7 +67,8 @@ class FrameSchedule:
         """
         capture_fps = as_fraction(timing.capture_fps)
         repeats = int(timing.frames_per_capture)
-        container_fps = capture_fps * repeats
+        slow = int(timing.slow_motion)
+        container_fps = capture_fps * repeats / slow
         period = 1.0 / float(capture_fps)
         n_captures = int(np.floor(duration_s * float(capture_fps))) + 1
         nominal = np.arange(n_captures) * period
@@ -86,6 +87,6 @@ class FrameSchedule:
             pts = np.arange(capture_index.size, dtype=np.int64)
         else:
             time_base = MP4_TIME_BASE
-            shown = capture_time + repeat_number * (period / repeats)
+            shown = (capture_time + repeat_number * (period / repeats)) * slow  # slow motion: presented later
             pts = np.round(shown / float(time_base)).astype(np.int64)
         return cls(capture_index, capture_time, pts, time_base, repeat_number > 0, container_fps, capture_fps)

@@ -243,3 +243,38 @@ def test_an_hevc_10_bit_mov_is_stored_as_a_phone_stores_it(tmp_path):
 def test_ten_bits_are_refused_without_hevc(tmp_path):
     with pytest.raises(ValueError, match="10 bits need libx265"):
         ClipWriter(tmp_path / "clip.mp4", 64, 64, 0, Fraction(30), Fraction(1, 30), codec="libx264", bit_depth=10)
+
+
+def test_sound_track_clicks_at_the_contacts(tmp_path):
+    """A clip with a PCM sound track: the audio stream decodes to the clip's length, each click's onset is
+    the touchdown plus the offset and the travel to the microphone, the sound is loud just after each onset
+    and quiet just before it; a missed impact has no click; a silent track holds noise only."""
+    import av
+    from dataclasses import replace as replaced
+
+    from phonesim import PRESETS, SoundTrack, render_clip
+
+    base = PRESETS["yellow_green_tape"]
+    config = replaced(base.scaled(0.1), duration_s=2.0, drop_height_m=0.4, hand=replaced(base.hand, hold_s=0.3))
+    for track in (SoundTrack(offset_s=0.05, codec="pcm_s16le", missed_impacts=(2,)),
+                  SoundTrack(codec="pcm_s16le", silent=True)):
+        path = tmp_path / "clip.mov"
+        truth = render_clip(config, path, seed=1, sound=track)
+        with av.open(str(path)) as container:
+            stream = container.streams.audio[0]
+            samples = np.concatenate([frame.to_ndarray().reshape(-1) for frame in container.decode(stream)])
+        samples = samples / 32768.0
+        assert samples.size == pytest.approx(2.0 * track.rate_hz, abs=track.rate_hz * 0.01)
+        if track.silent:
+            assert truth.sound.empty and np.max(np.abs(samples)) < 0.1
+            continue
+        assert 2 not in set(truth.sound["impact"])
+        expected = truth.sound["t_touchdown_s"] + 0.05 + track.options.mic_distance_m / 343.0
+        assert np.allclose(truth.sound["onset_s"], expected)
+        touchdowns = dict(zip(truth.impacts["impact"], truth.impacts["t_touchdown_s"]))
+        assert np.allclose(truth.sound["t_touchdown_s"], [touchdowns[n] for n in truth.sound["impact"]])
+        for onset in truth.sound["onset_s"]:
+            at = int(onset * track.rate_hz)
+            before = np.abs(samples[at - 400:at - 10]).max()
+            after = np.abs(samples[at:at + 400]).max()
+            assert after > 5 * before

@@ -161,6 +161,8 @@ def fit_summary(summary, impacts, settings=None, ball_type=None):
         "data": _data_record(summary),
         "notes": list(summary.get("notes") or []),
     }
+    if summary.get("sound_and_picture"):  # a video with sound (dropfit.audio.fuse): both sensors' e and combined
+        result["sound_and_picture"] = summary["sound_and_picture"]
     return result
 
 

@@ -132,9 +132,7 @@ def measure_recording(path, ball=None, settings=None, *, sample_id=None, tracked
     ball = ball or Ball()
     settings = settings or Settings()
     gravity = settings.site_gravity()
-    attrs = {"sample_id": sample_id, "ball_radius_m": ball.radius_m, "ball_mass_kg": ball.mass_kg,
-             "ball_type": ball.type, "floor_m": settings.floor_m, "dropfit_version": __version__,
-             "gravity_m_s2": gravity.value_m_s2, "gravity_se_m_s2": gravity.se_m_s2, "gravity_source": gravity.source}
+    attrs = _recording_attrs(ball, settings, sample_id)
     scale = settings.scale_m_per_px
     kind = recording_kind(path, settings)
     if settings.release_time_s is not None and kind != "audio":
@@ -153,6 +151,14 @@ def measure_recording(path, ball=None, settings=None, *, sample_id=None, tracked
                                          import_options=settings.import_options())
     trajectory.attrs["source_sha256"] = sha256_of(path)  # after the read: it has checked the file exists
     return trajectory
+
+
+def _recording_attrs(ball, settings, sample_id):
+    """The attributes every measured recording starts with: the ball, the floor, the g used, the version."""
+    gravity = settings.site_gravity()
+    return {"sample_id": sample_id, "ball_radius_m": ball.radius_m, "ball_mass_kg": ball.mass_kg,
+            "ball_type": ball.type, "floor_m": settings.floor_m, "dropfit_version": __version__,
+            "gravity_m_s2": gravity.value_m_s2, "gravity_se_m_s2": gravity.se_m_s2, "gravity_source": gravity.source}
 
 
 def gravity_scaled(attrs):
@@ -365,13 +371,23 @@ def _given_trajectory(trajectory, ball, settings, sample_id):
     return trajectory
 
 
-def process_recording(recording, ball=None, settings=None, *, sample_id=None, tracked=None):
+def process_recording(recording, ball=None, settings=None, *, sample_id=None, tracked=None, tracking_refusal=None):
     """:func:`analyse_recording` with the ball and the settings as objects (and a video's table from
-    :func:`track_recording`, when it is tracked already)."""
+    :func:`track_recording`, when it is tracked already, or the refusal that tracking it raised).
+
+    A video with a sound track is measured by both (:func:`measure_sound_and_picture`)."""
     import xarray as xr
 
     ball = ball or Ball()
     settings = settings or Settings()
+    if isinstance(recording, (str, os.PathLike)) and recording_kind(recording, settings) == "video":
+        from .audio.fuse import has_sound_track
+
+        if has_sound_track(recording):
+            return measure_sound_and_picture(recording, ball, settings, sample_id=sample_id, tracked=tracked,
+                                             tracking_refusal=tracking_refusal)
+    if tracking_refusal is not None:
+        raise tracking_refusal
     if isinstance(recording, xr.Dataset):
         trajectory = _given_trajectory(recording, ball, settings, sample_id)
     elif isinstance(recording, (str, os.PathLike)):
@@ -381,6 +397,151 @@ def process_recording(recording, ball=None, settings=None, *, sample_id=None, tr
     analysis = analyse_trajectory(trajectory, settings)
     fit = fit_analysis(analysis, trajectory.attrs, settings)
     return RecordingResult(trajectory=trajectory, analysis=analysis, fit=fit, settings=settings, ball=ball)
+
+
+def _picture_result(path, ball, settings, sample_id, tracked):
+    """A video measured, analysed and fitted by its picture alone."""
+    trajectory = measure_recording(path, ball, settings, sample_id=sample_id, tracked=tracked)
+    analysis = analyse_trajectory(trajectory, settings)
+    fit = fit_analysis(analysis, trajectory.attrs, settings)
+    return RecordingResult(trajectory=trajectory, analysis=analysis, fit=fit, settings=settings, ball=ball)
+
+
+def _sound_result(path, sound, attrs, settings, ball, release_time_s=None):
+    """A video's sound track measured, analysed and fitted as a sound recording (release on its clock, s)."""
+    trajectory = sound_trajectory(path, attrs, release_time_s, sound=sound)
+    trajectory.attrs["source_sha256"] = sha256_of(path)
+    analysis = analyse_trajectory(trajectory, settings)
+    fit = fit_analysis(analysis, trajectory.attrs, settings)
+    return RecordingResult(trajectory=trajectory, analysis=analysis, fit=fit, settings=settings, ball=ball)
+
+
+def _with_fusion(result, fusion):
+    """``result`` with the sound-and-picture record in its analysis summary, its fit and its ``fusion``."""
+    record = fusion.record()
+    analysis = dataclasses.replace(result.analysis, summary=dict(result.analysis.summary, sound_and_picture=record))
+    fit = dict(result.fit, sound_and_picture=record)
+    return RecordingResult(trajectory=result.trajectory, analysis=analysis, fit=fit, settings=result.settings,
+                           ball=result.ball)
+
+
+def measure_sound_and_picture(path, ball=None, settings=None, *, sample_id=None, tracked=None, tracking_refusal=None):
+    """A video with a sound track, measured both ways (:mod:`dropfit.audio.fuse`).
+
+    The picture is measured, analysed and fitted as any video; the sound track as a sound recording (without
+    a release: its e are of the impacts after the first, independent of the picture's). The impacts seen and heard are paired and the
+    offset between the clocks fitted; e from each and combined (:func:`dropfit.audio.fuse.fuse`). Where
+    the picture is refused, the sound's e is the result and its record keeps the picture's reason; where
+    the sound hears too few clicks, the picture's.
+
+    Returns
+    -------
+    dropfit.result.RecordingResult
+        The picture's result (or, the picture refused, the sound's), with ``fusion``
+        (:class:`dropfit.audio.fuse.SoundAndPicture`), also held as ``sound_and_picture`` in its fit and
+        analysis summary.
+
+    Raises
+    ------
+    dropfit.errors.InputError
+        When neither the picture nor the sound gives an e: the picture's refusal, with the sound's reason.
+    """
+    from .audio import fuse
+    from .audio.compare import pair_impacts
+    from .audio.decode import read_sound
+    from .errors import one_line
+
+    ball = ball or Ball()
+    settings = settings or Settings()
+    picture = picture_refusal = sound_refusal = None
+    if tracking_refusal is not None:
+        picture_refusal = str(tracking_refusal)
+    else:
+        try:
+            picture = _picture_result(path, ball, settings, sample_id, tracked)
+        except InputError as error:
+            picture_refusal = str(error)
+    attrs = _recording_attrs(ball, settings, sample_id)
+    if picture is not None:
+        attrs = {key: value for key, value in picture.trajectory.attrs.items()
+                 if key.startswith(("ball_", "gravity_")) or key in ("sample_id", "dropfit_version")}
+    heard = sound = None
+    try:
+        sound = read_sound(path)
+        # the picture refused, a capture rate given still puts a slow-motion clip's sound on the capture clock
+        given = fuse.slow_motion_factor(path, settings.capture_fps) if picture is None else 1.0
+        heard = _sound_result(path, fuse.on_capture_clock(sound, given) if given != 1.0 else sound, attrs, settings,
+                              ball)
+    except InputError as error:
+        sound_refusal = str(error)
+    except Exception as error:  # noqa: BLE001 — a bug in the sound's analysis must not cost the picture's e
+        if picture is None:
+            raise
+        sound_refusal = _internal_error(path, "its sound track", error)
+    if picture is None and heard is None:
+        # the picture's refusal last: its diagnosis and advice end the message
+        sound_reason = str(sound_refusal).split(": ", 1)[-1].split("; ")[0]
+        raise InputError(f"{shown_path(path)}: its sound track gives no e ({sound_reason}), and its picture none: "
+                         f"{str(picture_refusal).split(': ', 1)[-1]}")
+    if heard is None:
+        return _with_fusion(picture, fuse.one_sensor("picture", picture.fit, sound_refusal=one_line(sound_refusal),
+                                                     impacts=picture.impacts, covariance=picture.analysis.e_covariance))
+    if picture is None:
+        return _with_fusion(heard, fuse.one_sensor("sound", heard.fit, picture_refusal=picture_refusal,
+                                                   impacts=heard.impacts, covariance=heard.analysis.e_covariance))
+    seen = picture.impacts
+    seen_index, heard_index = pair_impacts(seen["t_touchdown_s"].to_numpy(), heard.impacts["t_touchdown_s"].to_numpy())
+    offset = (float("nan"), float("nan"))
+    notes = []
+    told = picture.trajectory.attrs
+    slowing = fuse.slow_motion_factor(path, told.get("capture_fps")
+                                      if told.get("capture_fps_source", "container") != "container" else None)
+    if slowing != 1.0:  # slow motion: its sound is slowed with the frames, and belongs on the capture clock
+        why = None
+        try:
+            captured = _sound_result(path, fuse.on_capture_clock(sound, slowing), attrs, settings, ball)
+        except InputError as error:
+            captured, why = None, str(error)
+        # the file's clock only where it pairs the impacts seen and the capture clock pairs fewer (a sound
+        # recorded unslowed)
+        index = (pair_impacts(seen["t_touchdown_s"].to_numpy(), captured.impacts["t_touchdown_s"].to_numpy())
+                 if captured is not None else None)
+        if captured is not None and (index[0].size >= seen_index.size or seen_index.size < fuse.MIN_PAIRS):
+            heard, (seen_index, heard_index) = captured, index
+            notes.append(f"slow motion ({slowing:g} times slower than captured): the sound is analysed on the "
+                         f"capture clock (its samples {slowing:g} times faster)")
+        elif captured is None and seen_index.size < fuse.MIN_PAIRS:  # neither clock: the sound gives no e
+            return _with_fusion(picture, fuse.one_sensor(
+                "picture", picture.fit, sound_refusal=f"{one_line(why)} (on the capture clock of this slow-motion "
+                                                      f"clip, {slowing:g} times faster than the file's)",
+                impacts=picture.impacts, covariance=picture.analysis.e_covariance))
+        else:
+            notes.append(f"slow motion ({slowing:g} times): the sound on the capture clock pairs fewer impacts; "
+                         f"it is analysed on the file's clock (recorded unslowed)")
+    if seen_index.size:
+        offset = fuse.fit_offset(seen["t_touchdown_s"].to_numpy()[seen_index],
+                                 seen["t_touchdown_se_s"].to_numpy()[seen_index],
+                                 heard.impacts["t_touchdown_s"].to_numpy()[heard_index],
+                                 heard.impacts["t_touchdown_se_s"].to_numpy()[heard_index])
+        if seen_index.size < fuse.MIN_PAIRS:
+            notes.append("the offset is that of one impact paired: not checked by a second")
+        # (the picture's release is not given to the sound: its first e would share the picture's error of the
+        # release, not independent of the picture's first e, and the release's error is not carried)
+    try:
+        fusion = fuse.fuse(seen, picture.analysis.e_covariance, picture.fit, heard.impacts,
+                           heard.analysis.e_covariance, heard.fit, seen_index, heard_index, offset, notes)
+    except Exception as error:  # noqa: BLE001 — as above: the picture's e stands
+        fusion = fuse.one_sensor("picture", picture.fit, sound_refusal=_internal_error(
+            path, "combining its sound and picture", error))
+    return _with_fusion(picture, fusion)
+
+
+def _internal_error(path, what, error):
+    """The words of a bug met in ``what`` of a recording (kept in its record, the other sensor's e stands)."""
+    from .errors import shown
+
+    return (f"{shown_path(path)}: internal error in dropfit while analysing {what} ({type(error).__name__}: "
+            f"{shown(error)}); please report it with this file")
 
 
 def analyse_recording(recording, *, ball_radius_m=None, ball_mass_kg=None, ball_type=None, sample_id=None,

@@ -41,7 +41,7 @@ MISSING = "—"
 
 BATCH_COLUMNS = ["sample_id", "status", "ball_type", "n_impacts", "restitution_model", "e", "e_se", "e_ci95_low",
                  "e_ci95_high", "e_speed_m_s", "e1", "e1_se", "drop_height_m", "itf_rebound_m", "itf_rebound_se_m",
-                 "itf_verdict", "drag_model", "error"]
+                 "itf_verdict", "drag_model", "e_from", "sound_picture_flag", "error"]
 
 _CSS = """
 body { font-family: system-ui, sans-serif; max-width: 70em; margin: 1em auto; padding: 0 1em; color: #222; }
@@ -804,6 +804,45 @@ def _section_models(fit):
             + (f"\n<ul>\n{not_fitted}</ul>" if not_fitted else "") + f"\n<p>{escape(rules)}</p>")
 
 
+def _section_sound_and_picture(record):
+    """A video with sound (:class:`dropfit.audio.fuse.SoundAndPicture`): where the e comes from, e from each
+    sensor and combined, the clocks' offset, the impacts seen and heard, and any disagreement."""
+    from .audio.fuse import SoundAndPicture
+
+    fusion = SoundAndPicture.from_record(record)
+
+    def text(estimate):
+        if estimate is None:
+            return MISSING
+        low, high = estimate.ci95
+        return escape(f"{format_pm(estimate.value, estimate.se)} (95 % interval {low:.4g}–{high:.4g})")
+
+    verdict = fusion.verdict
+    items = [("e comes from", _text(fusion.source)), ("e", text(fusion.e)), ("e from the picture", text(fusion.e_picture)),
+             ("e from the sound", text(fusion.e_sound)), ("e combined", text(fusion.e_combined)),
+             ("offset sound − picture", escape(f"{_num(1e3 * fusion.offset_s, '.2f')} ± "
+                                               f"{_num(1e3 * fusion.offset_se_s, '.2f')} ms over {len(fusion.pairs)} "
+                                               f"impacts paired")),
+             ("disagreement", escape(f"{_num(fusion.headline_difference_se, '.2f')} standard errors (paired e, picture − sound); "
+                                     f"paired e: chi2 {_num(fusion.chi2, '.3g')} over {fusion.dof}, p = "
+                                     f"{_num(fusion.p_value, '.3g')}")),
+             ("verdict", f'<span class="verdict verdict-{"pass" if fusion.agree else "fail"}">{verdict}</span>'
+                         + (f" {escape(fusion.flag)}" if fusion.flag else ""))]
+    if fusion.picture_refusal:
+        items.append(("picture refused", _text(fusion.picture_refusal)))
+    if fusion.sound_refusal:
+        items.append(("sound gives no e", _text(fusion.sound_refusal)))
+    rows = [[(_text(pair.impact_picture), True), (_text(pair.impact_sound), True), (_num(pair.t_picture_s, ".4f"), True),
+             (_num(pair.t_sound_s, ".4f"), True), (escape(format_pm(pair.e_picture, pair.e_picture_se)), True),
+             (escape(format_pm(pair.e_sound, pair.e_sound_se)), True),
+             (escape(format_pm(pair.e_combined, pair.e_combined_se)), True), (_num(pair.difference_se, ".2f"), True)]
+            for pair in fusion.pairs]
+    table = _table(["impact seen", "impact heard", "picture (s)", "sound (s)", "e picture", "e sound", "e combined",
+                    "difference (se)"], rows) if rows else ""
+    notes = "".join(f"<li>{escape(note)}</li>" for note in fusion.notes)
+    return _definitions(items) + table + (f"<ul>{notes}</ul>" if notes else "")
+
+
 def _section_itf(fit):
     itf = fit["itf"]
     verdict = itf["verdict"]
@@ -1047,6 +1086,8 @@ def recording_report_html(trajectory, flights, impacts, fit, png, contact_sheet_
     sections = [
         ("Recording", _section_recording(fit) + _contact_sheet_html(contact_sheet_png)),
         ("Result", _section_result(fit)),
+    ] + ([("Sound and picture", _section_sound_and_picture(fit["sound_and_picture"]))]
+         if fit.get("sound_and_picture") else []) + [
         ("Restitution models", _section_models(fit)),
         ("ITF verdict", _section_itf(fit)),
         ("Drag", _section_drag(fit)),
@@ -1064,6 +1105,11 @@ def recording_report_html(trajectory, flights, impacts, fit, png, contact_sheet_
              f"<p>Heights are of the ball centre above the contact height "
              f"({escape(_estimate(fit.get('contact_height_m'), 'm'))} above the sensor zero); "
              f"{len(flights)} flights fitted.</p>")
+    fusion = fit.get("sound_and_picture")
+    if fusion:  # a video with sound: where the headline e comes from, and any disagreement, first
+        from .audio.fuse import SoundAndPicture
+
+        intro = f"<p><b>e {escape(SoundAndPicture.from_record(fusion).headline())}</b></p>" + intro
     return _html_page(f"dropfit report: {sample_id}", intro, _sections_html(sections), [fit])
 
 
@@ -1114,6 +1160,8 @@ def _batch_row(fit):
         return {"sample_id": fit.get("sample_id"), "status": "failed", "error": fit.get("error")}
     restitution = fit["restitution"]
     e, e1 = restitution["e"], restitution.get("e1") or {}
+    fusion = fit.get("sound_and_picture") or {}
+    e = fusion.get("e") or e  # a video with sound: the result's e (combined, or one sensor's)
     rebound = fit["itf"].get("rebound_m") or {}
     ci = e.get("ci95") or [None, None]
     return {
@@ -1125,6 +1173,7 @@ def _batch_row(fit):
         "drop_height_m": (fit.get("drop_height_m") or {}).get("value"),
         "itf_rebound_m": rebound.get("value"), "itf_rebound_se_m": rebound.get("se"),
         "itf_verdict": fit["itf"].get("verdict"), "drag_model": fit["drag"].get("model"),
+        "e_from": fusion.get("source"), "sound_picture_flag": fusion.get("flag"),
     }
 
 

@@ -18,8 +18,8 @@ from .files import json_ready
 from .restitution import Z95
 
 #: The sections of :meth:`RecordingResult.report`, always all of them and in this order.
-REPORT_SECTIONS = ("Recording", "Data used and left out", "Coefficient of restitution", "Restitution models",
-                   "Impacts", "Drag", "Contact", "Gravity and scale", "ITF", "Notes")
+REPORT_SECTIONS = ("Recording", "Data used and left out", "Coefficient of restitution", "Sound and picture",
+                   "Restitution models", "Impacts", "Drag", "Contact", "Gravity and scale", "ITF", "Notes")
 #: Per-impact parameters: name prefix → (impacts column, unit, factor to the unit, description).
 IMPACT_PARAMETERS = {
     "e": ("e", "1", 1.0, "coefficient of restitution v_out/v_in of impact {n}"),
@@ -128,6 +128,7 @@ class RecordingResult:
 
     def __post_init__(self):
         self.params = {parameter.name: parameter for parameter in _parameters(self.fit, self.analysis.impacts)}
+        self.params.update({parameter.name: parameter for parameter in _fusion_parameters(self.fusion)})
         self.notes = _notes(self.fit, self.analysis.summary, self.trajectory.attrs)
 
     @property
@@ -151,6 +152,17 @@ class RecordingResult:
         source = str(self.fit.get("source") or "recording")
         return self.fit.get("sample_id") or source.replace("\\", "/").rsplit("/", 1)[-1]
 
+    @property
+    def fusion(self):
+        """What the sound and the picture of a video with sound say together
+        (:class:`dropfit.audio.fuse.SoundAndPicture`), or None for any other recording."""
+        record = self.fit.get("sound_and_picture")
+        if not record:
+            return None
+        from .audio.fuse import SoundAndPicture
+
+        return SoundAndPicture.from_record(record)
+
     def to_dict(self):
         """The fit result exactly as ``fit.json`` holds it (JSON types; null for a missing number)."""
         return json.loads(json.dumps(json_ready(self.fit), allow_nan=False))
@@ -160,8 +172,15 @@ class RecordingResult:
         restitution = self.fit["restitution"]
         e = self.params["e"]
         itf = self.fit["itf"]["verdict"]
-        return (f"{self.name}: e = {format_pm(e.value, e.stderr)} ({restitution['model']}, "
-                f"{restitution['n_impacts']} of {restitution['n_impacts_total']} impacts), drop height "
+        fusion = self.fusion
+        fitted = f"{restitution['model']}, {restitution['n_impacts']} of {restitution['n_impacts_total']} impacts"
+        if fusion is None:
+            about = fitted
+        elif fusion.source == "sound" and fusion.e_picture is not None:  # the picture's fit, the sound's e
+            about = f"{fusion.headline()}; the picture's fit: {fitted}"
+        else:
+            about = f"{fitted}; {fusion.headline()}"
+        return (f"{self.name}: e = {format_pm(e.value, e.stderr)} ({about}), drop height "
                 f"{format_pm(self.params['drop_height'].value, self.params['drop_height'].stderr)} m"
                 + ("" if itf == "not applicable" else f", ITF {itf}"))
 
@@ -230,6 +249,20 @@ def _parameters(fit, impacts):
                                                  f"({rebound.get('method', '')})")
 
 
+def _fusion_parameters(fusion):
+    """A video with sound: ``e`` is the result's (combined, or one sensor's), beside ``e_picture``, ``e_sound``
+    and ``e_combined`` where there are."""
+    if fusion is None:
+        return
+    for name, estimate, description in (
+            ("e", fusion.e, f"headline e, from {fusion.source}" + (f" ({fusion.verdict}: {fusion.flag})" if fusion.flag else "")),
+            ("e_picture", fusion.e_picture, "headline e of the picture alone"),
+            ("e_sound", fusion.e_sound, "headline e of the sound alone"),
+            ("e_combined", fusion.e_combined, "inverse-variance combination of the picture's and the sound's e")):
+        if estimate is not None:
+            yield Parameter(name, estimate.value, estimate.se, estimate.ci95, "1", description)
+
+
 def _true(flag):
     """An impacts-table flag read from memory or from a CSV (bool, text or missing)."""
     if isinstance(flag, str):
@@ -267,6 +300,10 @@ def _notes(fit, summary, attrs):
     for key in ("ruler_note", "target_note", "tilt_note", "floor_note", "gravity_calibration_failed"):
         if attrs.get(key):
             notes.append(f"{key.replace('_', ' ')}: {attrs[key]}")
+    fusion = fit.get("sound_and_picture") or {}
+    if fusion.get("flag"):
+        notes.append(f"sound and picture, {'DISAGREE' if fusion.get('agree') is False else 'CHECK'}: {fusion['flag']}")
+    notes += [f"sound and picture: {note}" for note in fusion.get("notes") or []]
     gravity = summary.get("gravity") or {}
     if gravity.get("source") and gravity.get("source") != "given":
         notes.append(gravity.get("note", ""))
@@ -311,7 +348,7 @@ def _sections(result):
     excluded = restitution.get("impacts_excluded") or []
     yield _lines([
         ("samples", f"{time.size} over {time[-1] - time[0]:.4g} s, {attrs.get('n_dropouts', 0)} dropouts"),
-        ("release", f"{summary.get('release_time_s', float('nan')):.4g} s ({summary.get('hand_samples', 0)} samples "
+        ("release", f"{_g(summary.get('release_time_s'), 4)} s ({summary.get('hand_samples', 0)} samples "
                     f"before it left out)"),
         ("left out", f"{summary.get('tracking_jump_samples', 0)} tracking-jump samples, "
                      f"{summary.get('residual_outlier_samples', 0)} residual outliers"),
@@ -331,6 +368,7 @@ def _sections(result):
              ("uncertainty", str(restitution.get("note") or missing)),
              ("why", str(restitution.get("why")))]
     yield _lines(rows)
+    yield _sound_and_picture_text(result.fusion)
     models = fit["restitution_models"]
     yield _text_table(["", "model", "law", "e at v1", "chi2/dof", "p", "verdict", "Birge", "dBIC"], [
         ["*" if name == restitution["model"] else "", name, model["law"],
@@ -379,3 +417,32 @@ def _sections(result):
                         f"{_g(limits.get('drop_height_m'))} m"), ("why", str(itf.get("why")))]
     yield _lines(rows)
     yield "\n".join(f"{number}. {note}" for number, note in enumerate(result.notes, 1)) or "none"
+
+
+def _sound_and_picture_text(fusion):
+    """The report's section on a video's sound and picture together."""
+    if fusion is None:
+        return "not a video with a sound track: one sensor"
+
+    def text(estimate):
+        return _report().MISSING if estimate is None else format_pm(estimate.value, estimate.se)
+
+    rows = [("e from", fusion.source), ("e", text(fusion.e)), ("e picture", text(fusion.e_picture)),
+            ("e sound", text(fusion.e_sound)), ("e combined", text(fusion.e_combined)
+                                                + ("" if fusion.e_combined is None else
+                                                   f" (95 % interval {_g(fusion.e_combined.ci95[0], 4)}–"
+                                                   f"{_g(fusion.e_combined.ci95[1], 4)})")),
+            ("offset sound − picture", f"{_g(1e3 * fusion.offset_s, 4)} ± {_g(1e3 * fusion.offset_se_s, 2)} ms"),
+            ("disagreement", f"{_g(fusion.headline_difference_se, 3)} se (paired e, picture − sound); chi2 "
+                             f"{_g(fusion.chi2, 4)}/{fusion.dof}, p = {_g(fusion.p_value, 3)}"),
+            ("verdict", fusion.verdict + (f": {fusion.flag}" if fusion.flag else ""))]
+    if fusion.picture_refusal:
+        rows.append(("picture refused", fusion.picture_refusal))
+    if fusion.sound_refusal:
+        rows.append(("sound gives no e", fusion.sound_refusal))
+    table = _text_table(["impact seen", "impact heard", "t picture s", "t sound s", "e picture", "e sound",
+                         "e combined", "difference se"], [
+        [pair.impact_picture, pair.impact_sound, f"{pair.t_picture_s:.4f}", f"{pair.t_sound_s:.4f}",
+         format_pm(pair.e_picture, pair.e_picture_se), format_pm(pair.e_sound, pair.e_sound_se),
+         format_pm(pair.e_combined, pair.e_combined_se), _g(pair.difference_se, 3)] for pair in fusion.pairs])
+    return _lines(rows) + "\n\n" + table + "".join(f"\n- {note}" for note in fusion.notes)

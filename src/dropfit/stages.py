@@ -182,7 +182,7 @@ def run_files(recording, settings=None):
     return RUN_FILES + (VIDEO_RUN_FILES if tracked else ())
 
 
-def run(recording, out_dir, ball=None, settings=None, sample_id=None, tracked=None):
+def run(recording, out_dir, ball=None, settings=None, sample_id=None, tracked=None, tracking_refusal=None):
     """One recording → every file the workflow writes for it (:func:`run_files`) in ``out_dir``, whole or
     not at all: they are made in a temporary directory inside ``out_dir`` and moved in only when all
     are made. A video's ``tracked`` table (:func:`dropfit.pipeline.track_recording`), when given, is not
@@ -195,10 +195,14 @@ def run(recording, out_dir, ball=None, settings=None, sample_id=None, tracked=No
     """
     video = isinstance(recording, (str, os.PathLike)) and is_video(recording) and (settings is None
                                                                                    or settings.kind != "audio")
-    if video and tracked is None:
-        tracked = track_recording(recording, settings, ball)
-    result = process_recording(recording, ball, settings, sample_id=sample_id, tracked=tracked)
+    refusal = tracking_refusal
+    if video and tracked is None and refusal is None:
+        tracked, refusal = track_or_refusal(recording, settings, ball)
+    result = process_recording(recording, ball, settings, sample_id=sample_id, tracked=tracked,
+                               tracking_refusal=refusal)
     say_how_read(result.trajectory)
+    fusion = result.fusion
+    picture_refused = fusion is not None and fusion.picture_refusal is not None
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     with tempfile.TemporaryDirectory(prefix=".dropfit-run.", dir=out) as directory:
@@ -207,7 +211,10 @@ def run(recording, out_dir, ball=None, settings=None, sample_id=None, tracked=No
         write_analysis(result.analysis, result.trajectory.attrs, made["impacts.csv"], made["flights.csv"],
                        made["analysis.json"])
         write_json(made["fit.json"], result.fit)
-        if video:  # the contact sheet from the files, as the workflow's overlay job makes it
+        if video and picture_refused:  # the sound's e: the sheet shows what was tracked and why it is refused
+            write_refused_picture(recording, made["track.csv"], made["contact_sheet.png"], tracked,
+                                  fusion.picture_refusal)
+        elif video:  # the contact sheet from the files, as the workflow's overlay job makes it
             write_table(made["track.csv"], tracked.table)
             overlay(recording, made["contact_sheet.png"], results_dir=directory)
         # the report from the files, as the workflow's report job makes it
@@ -216,6 +223,35 @@ def run(recording, out_dir, ball=None, settings=None, sample_id=None, tracked=No
         for name, path in made.items():
             os.replace(path, out / name)
     return result
+
+
+def track_or_refusal(video, settings=None, ball=None):
+    """(the tracked table, None), or (None, the refusal) for a video with a sound track whose ball is not
+    found: its sound may still give the e (:func:`dropfit.pipeline.measure_sound_and_picture`)."""
+    from .audio.fuse import has_sound_track
+
+    try:
+        return track_recording(video, settings, ball), None
+    except InputError as error:
+        if not has_sound_track(video):
+            raise
+        return None, error
+
+
+def write_refused_picture(video, track_path, sheet_path, tracked, reason):
+    """A video whose picture is refused while its sound gives the e: the tracked table (or the refusal as a
+    failure record, where the tracking itself failed) and the contact sheet with the reason as its caption."""
+    from .files import write_failure
+    from .video.overlay import SHEET_TILES, contact_sheet, overlay_scene
+
+    if tracked is None:
+        write_failure(track_path, one_line(reason))
+        write_failure(sheet_path, one_line(reason))
+        return
+    write_table(track_path, tracked.table)
+    image, _ = contact_sheet(video, overlay_scene(tracked.table, None, reason=one_line(reason)), SHEET_TILES,
+                             title=shown_path(video))
+    write_png(sheet_path, image)
 
 
 def sound_video(video, pairs_path, summary_path, ball=None, settings=None, sample_id=None):
@@ -453,9 +489,13 @@ def _run_row(row, out, config, say):
         except OptionError as error:
             raise InputError(f"{shown_path(path)}: {error.named(lambda name: name)} (sample sheet column or "
                              f"config key)") from None
+        refusal = None
         if row["kind"] == "video":
-            tracked = track_recording(path, settings, ball)
-        say(run(path, out, ball, settings, row["sample_id"], tracked).summary())
+            tracked, refusal = track_or_refusal(path, settings, ball)
+        if refusal is not None:  # the sound may still measure it: run() tracks no more
+            say(run(path, out, ball, settings, row["sample_id"], tracking_refusal=refusal).summary())
+        else:
+            say(run(path, out, ball, settings, row["sample_id"], tracked).summary())
         return None, None
     except InputError as error:
         return one_line(str(error)), tracked

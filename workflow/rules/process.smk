@@ -3,6 +3,10 @@
 # job: `dropfit batch` does each recording of its chunk as `dropfit run` does, in one Python process, so
 # that a recording costs its work and not a process start-up. A recording that fails gets failure records
 # and the chunk goes on. One rule per chunk (process_logs_<i>, process_videos_<i>; common.smk chunks).
+# A video row with a sound track is measured by its picture and its sound together, as `dropfit run`
+# does it (dropfit.pipeline.measure_sound_and_picture): its fit.json and report hold sound_and_picture,
+# and where the picture is refused its sound's e is the result (the tracked table and contact sheet
+# still written); a row of kind audio measures the sound track alone.
 
 for chunk, members in chunks.items():
 

@@ -4,10 +4,11 @@ The video is tracked and analysed as any video (:func:`dropfit.pipeline.process_
 sound track is analysed as a sound recording (:mod:`dropfit.audio.recording`), both on the
 container's clock. Each impact seen is paired with the impact heard nearest to it after the offset
 between the two clocks (the offset with the most pairs within :data:`PAIR_TOLERANCE_S`); the offset
-reported is the median of the paired differences, sound − video: the phone's audio/video offset plus
+reported is the weighted mean of the paired differences (:func:`dropfit.audio.fuse.fit_offset`), sound − video: the phone's audio/video offset plus
 the sound's travel from the floor to the microphone (0.9 ms at 30 cm). The release the video sees,
 moved onto the sound's clock, gives the sound its drop height and first impact's e. e from both sit
-side by side.
+side by side. (``dropfit run`` measures a video with sound both ways and combines them:
+:func:`dropfit.pipeline.measure_sound_and_picture`, :mod:`dropfit.audio.fuse`.)
 """
 
 from __future__ import annotations
@@ -17,27 +18,33 @@ import pandas as pd
 
 from ..errors import InputError, shown_path
 from ..numerics import robust_sigma
-from ..pipeline import analyse_trajectory, fit_analysis, process_recording
+from ..pipeline import _picture_result, analyse_trajectory, fit_analysis
 from ..settings import Ball, Settings
 from .decode import read_sound
+from .fuse import fit_offset
 from .recording import sound_trajectory
 
 #: An impact heard and an impact seen are the same when, after the clocks' offset, they are closer
 #: than this (s): well below a bounce's flight time, well above a video's touchdown uncertainty.
 PAIR_TOLERANCE_S = 0.02
+#: The largest offset between a recording's sound and its frames (s): phones keep them within about 0.1 s;
+#: clicks that pair with the impacts seen only further apart are other sounds.
+MAX_OFFSET_S = 0.3
 
 
-def pair_impacts(video_s, sound_s, tolerance_s=PAIR_TOLERANCE_S):
-    """Pair impact times seen and heard (s, each increasing) across an unknown clock offset.
+def pair_impacts(video_s, sound_s, tolerance_s=PAIR_TOLERANCE_S, max_offset_s=MAX_OFFSET_S):
+    """Pair impact times seen and heard (s, each increasing) across an unknown clock offset (at most
+    ``max_offset_s``).
 
     Returns
     -------
     (numpy.ndarray, numpy.ndarray)
         Indices into ``video_s`` and ``sound_s`` of the pairs, for the offset (sound − video) that pairs
-        the most (the smallest such offset on a tie).
+        the most (the smallest such offset on a tie); empty when none pairs within the largest offset.
     """
     best = (np.array([], int), np.array([], int))
-    for offset in sorted(np.subtract.outer(sound_s, video_s).ravel(), key=abs):
+    offsets = np.subtract.outer(np.asarray(sound_s, float), np.asarray(video_s, float)).ravel()
+    for offset in sorted(offsets[np.abs(offsets) <= max_offset_s], key=abs):
         shifted = video_s + offset
         nearest = np.array([int(np.argmin(np.abs(sound_s - t))) for t in shifted])
         close = np.abs(sound_s[nearest] - shifted) < tolerance_s
@@ -73,7 +80,7 @@ def compare_sound_and_video(path, ball=None, settings=None, sample_id=None):
     settings = settings or Settings()
     name = shown_path(path)
     sound = read_sound(path)
-    video = process_recording(path, ball, settings, sample_id=sample_id)
+    video = _picture_result(path, ball, settings, sample_id, None)  # the picture alone (run fuses both)
     attrs = {key: value for key, value in video.trajectory.attrs.items()
              if key.startswith(("ball_", "gravity_")) or key in ("sample_id", "dropfit_version")}
     heard_trajectory = sound_trajectory(path, attrs, sound=sound)
@@ -105,12 +112,12 @@ def compare_sound_and_video(path, ball=None, settings=None, sample_id=None):
         pairs[f"e_{source}_se"] = table["e_se"].to_numpy()[index]
     offsets = pairs["offset_s"].to_numpy()
     spread = robust_sigma(offsets) if offsets.size > 2 else float(np.std(offsets))
-    touchdown_se = np.hypot(seen["t_touchdown_se_s"].to_numpy()[seen_index],
-                            heard_impacts["t_touchdown_se_s"].to_numpy()[heard_index])
+    offset, offset_se = fit_offset(pairs["t_video_s"], seen["t_touchdown_se_s"].to_numpy()[seen_index],
+                                   pairs["t_sound_s"], heard_impacts["t_touchdown_se_s"].to_numpy()[heard_index])
     summary = {
-        "offset_s": float(np.median(offsets)),
+        "offset_s": offset,
         "offset_spread_s": float(spread),
-        "offset_se_s": float(max(spread, float(np.median(touchdown_se))) / np.sqrt(offsets.size)),
+        "offset_se_s": offset_se,
         "offset_note": "sound − video: the audio/video offset of the recording plus the sound's travel time "
                        "from the floor to the microphone (about 2.9 ms per m)",
         "e_video": video.fit["restitution"]["e"], "e_sound": heard_fit["restitution"]["e"],
