@@ -197,7 +197,12 @@ def run(recording, out_dir, ball=None, settings=None, sample_id=None, tracked=No
                                                                                    or settings.kind != "audio")
     if video and tracked is None:
         tracked = track_recording(recording, settings, ball)
-    result = process_recording(recording, ball, settings, sample_id=sample_id, tracked=tracked)
+    try:
+        result = process_recording(recording, ball, settings, sample_id=sample_id, tracked=tracked)
+    except InputError as error:
+        if video:  # what was tracked shows why: its failure records keep it (record_refused_video)
+            error.tracked = tracked
+        raise
     say_how_read(result.trajectory)
     out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
@@ -477,13 +482,26 @@ def _record_failure(row, out, message, tracked):
     figure = None
     if "track.csv" in names:
         if tracked is not None:
-            write_table(out / "track.csv", tracked.table)
-            try:
-                overlay(row["path"], out / "contact_sheet.png", results_dir=out)
-                figure = (out / "contact_sheet.png").read_bytes()
-            except InputError:
-                write_failure(out / "contact_sheet.png", message)
+            figure = record_refused_video(row["path"], out, tracked)
         else:
             write_failure(out / "track.csv", message)
             write_failure(out / "contact_sheet.png", message)
     write_failure(out / "report.html", message, figure)
+
+
+def record_refused_video(video, out, tracked):
+    """What a video refused after tracking leaves in its results directory ``out``, beside the failure records
+    of the other files (written first: their message is the contact sheet's caption): its tracked table
+    (``track.csv``) and a contact sheet of its frames, the ball drawn with each frame's quality, under the
+    refusal (:func:`overlay`). Returns the sheet (PNG bytes) for the report's failure page, or None when it could
+    not be drawn (then ``contact_sheet.png`` is the failure record)."""
+    from .files import write_failure
+
+    out = Path(out)
+    write_table(out / "track.csv", tracked.table)
+    try:
+        overlay(video, out / "contact_sheet.png", results_dir=out)
+        return (out / "contact_sheet.png").read_bytes()
+    except InputError as error:
+        write_failure(out / "contact_sheet.png", one_line(str(error)))
+        return None
