@@ -320,6 +320,11 @@ def _bound_values(argv):
     return bound
 
 
+#: Longest argparse message quoted in a failure record, characters: its list of choices ("choose from …") is
+#: the advice, and a value given on the command line is rarely long.
+USAGE_MESSAGE_LIMIT = 600
+
+
 def _usage_failure(argv, error):
     """A command line the parser refused: argparse's usage and message and exit status 2; under
     ``--record-failure``, when the outputs can be read from the command line, its failure records
@@ -328,7 +333,9 @@ def _usage_failure(argv, error):
         try:
             args, _ = build_parser(lenient=True).parse_known_args(argv)
             outputs = _outputs(args)
-            line = one_line(f"{_input_name(args)}: {shown(str(error))}; see dropfit {args.command} --help")
+            # argparse's message is the diagnosis (with the value given, short): quoted whole up to a generous limit
+            line = one_line(f"{_input_name(args)}: {shown(str(error), USAGE_MESSAGE_LIMIT)}; see dropfit {args.command} "
+                            f"--help")
         except (_UsageError, InputError, AttributeError, KeyError, TypeError):
             outputs = []
         if outputs:
