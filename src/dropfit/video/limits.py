@@ -66,11 +66,11 @@ MIN_FRAME_INTERVALS_PER_FLIGHT = 8
 #: before its contact and gives e within 5 × 10⁻⁵ (tests/test_videolog.py).
 MIN_CLEAN_FRAMES_PER_FLIGHT = 7
 #: Columns of an impact that the flight before it decides (with their se and interval): NaN where that
-#: flight is too poorly filmed (:func:`select_resolved_impacts`).
-UNRESOLVED_IMPACT_COLUMNS = ("v_in_m_s", "e", "e_height", "flight_time_ratio", "t_contact_ms", "h_before_m")
+#: flight is too poorly filmed (:func:`select_resolved_impacts`). The flights' own apex heights and durations
+#: (``h_before_m``, ``h_after_m``, ``flight_time_after_s``) keep their fitted values and standard errors.
+UNRESOLVED_IMPACT_COLUMNS = ("v_in_m_s", "e", "e_height", "flight_time_ratio", "t_contact_ms")
 #: Columns of an impact that the flight after it decides: NaN where that flight is too poorly filmed.
-UNRESOLVED_AFTER_COLUMNS = ("v_out_m_s", "e", "e_height", "flight_time_ratio", "t_contact_ms", "h_after_m",
-                            "flight_time_after_s")
+UNRESOLVED_AFTER_COLUMNS = ("v_out_m_s", "e", "e_height", "flight_time_ratio", "t_contact_ms")
 #: Fewest clean frames in a recording: the two flights around a first impact.
 MIN_CLEAN_FRAMES = 2 * MIN_CLEAN_FRAMES_PER_FLIGHT
 
@@ -370,8 +370,8 @@ def select_resolved_impacts(analysis, source, frame_interval_s, unclean=None):
     keeps its row with no e and the reason; the others keep their e, whatever the flights elsewhere.
 
     Impact n needs flights n − 1 and n: a flight too poorly filmed costs the impacts on both its sides (e, the
-    flight-time ratio and the contact time of both; the impact speed of the one after it, the rebound speed and
-    height of the one before it), and only those: an early impact is never lost because of a later flight, nor
+    flight-time ratio and the contact time of both; the impact speed of the one after it, the rebound speed of
+    the one before it), and only those: an early impact is never lost because of a later flight, nor
     the impacts after an occluded flight because of it. A clip at 30 frames/s often films the drop's fast fall in
     too few clean frames (a white ball blurred into the wall, a hand in view) and the bounces after it well; a
     football at 20 frames/s has long early flights and a short fourth one.
