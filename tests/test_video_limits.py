@@ -447,3 +447,21 @@ def test_an_analysis_refusal_of_a_poorly_tracked_video_says_what_was_tracked(tmp
     assert "--ball-at-px" in message and "\n" not in message
     well = poorly.assign(quality=("time", np.zeros(300, int)))
     assert video_limits.analysis_refusal(said, well) == said
+
+
+def test_the_fit_and_the_headline_count_every_impact_found(tmp_path, drop):
+    """A 60 frames/s video whose late flights are too short: the fit uses the measured impacts, counts every one
+    found (n of M in the headline), and names each one left out with its reason."""
+    from dropfit.pipeline import fit_analysis
+
+    table = tracked_table(drop, fps=60.0, duration_s=2.6)
+    trajectory = trajectory_from_video(tmp_path / "clip.avi", ball_radius_m=BALL_RADIUS_M, scale_m_per_px=1 / PX_PER_M,
+                                       tracked=TrackedVideo(table, None))
+    analysis = analyse_trajectory(trajectory)
+    measured = int(analysis.impacts["in_fit"].sum())
+    assert 2 <= measured < len(analysis.impacts)
+    restitution = fit_analysis(analysis, trajectory.attrs)["restitution"]
+    assert (restitution["n_impacts"], restitution["n_impacts_total"]) == (measured, len(analysis.impacts))
+    left_out = {item["impact"]: item["note"] for item in restitution["impacts_excluded"]}
+    assert sorted(left_out) == analysis.impacts["impact"][~analysis.impacts["in_fit"]].tolist()
+    assert all("frame intervals" in note or "clean" in note for note in left_out.values())
