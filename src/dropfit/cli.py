@@ -393,7 +393,7 @@ def main(argv=None):
         if path not in kept and path not in drawn and not (refused_video and path.endswith("report.html")):
             write_failure(path, message, figure)
     if refused_video:  # its tracked table and its frames drawn, under the refusal read from the records above
-        figure = stages.record_refused_video(args.recording, args.out, tracked)
+        figure = stages.record_refused_video(args.recording, args.out, tracked, message)
         write_failure(os.path.join(args.out, "report.html"), message, figure)
     return 0
 

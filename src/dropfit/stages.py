@@ -482,19 +482,19 @@ def _record_failure(row, out, message, tracked):
     figure = None
     if "track.csv" in names:
         if tracked is not None:
-            figure = record_refused_video(row["path"], out, tracked)
+            figure = record_refused_video(row["path"], out, tracked, message)
         else:
             write_failure(out / "track.csv", message)
             write_failure(out / "contact_sheet.png", message)
     write_failure(out / "report.html", message, figure)
 
 
-def record_refused_video(video, out, tracked):
+def record_refused_video(video, out, tracked, message):
     """What a video refused after tracking leaves in its results directory ``out``, beside the failure records
     of the other files (written first: their message is the contact sheet's caption): its tracked table
     (``track.csv``) and a contact sheet of its frames, the ball drawn with each frame's quality, under the
     refusal (:func:`overlay`). Returns the sheet (PNG bytes) for the report's failure page, or None when it could
-    not be drawn (then ``contact_sheet.png`` is the failure record)."""
+    not be drawn (then ``contact_sheet.png`` is the failure record of ``message``, the refusal)."""
     from .files import write_failure
 
     out = Path(out)
@@ -502,6 +502,10 @@ def record_refused_video(video, out, tracked):
     try:
         overlay(video, out / "contact_sheet.png", results_dir=out)
         return (out / "contact_sheet.png").read_bytes()
-    except InputError as error:
-        write_failure(out / "contact_sheet.png", one_line(str(error)))
+    except Exception as error:  # noqa: BLE001 — the refusal, not a failure to draw it, is the recording's message
+        if not isinstance(error, InputError):  # a bug: its traceback to the log
+            import traceback
+
+            traceback.print_exc()
+        write_failure(out / "contact_sheet.png", message)
         return None
