@@ -465,3 +465,16 @@ def test_the_fit_and_the_headline_count_every_impact_found(tmp_path, drop):
     left_out = {item["impact"]: item["note"] for item in restitution["impacts_excluded"]}
     assert sorted(left_out) == analysis.impacts["impact"][~analysis.impacts["in_fit"]].tolist()
     assert all("frame intervals" in note or "clean" in note for note in left_out.values())
+
+
+def test_a_refusal_names_the_flights_the_analysis_could_not_fit(drop):
+    """Flight 2 seen in 4 frames only ends the analysed sequence after impact 1; at a frame rate too low for any
+    flight (4 frames/s), the refusal gives impact 1 its reason and says why no later impact is among them."""
+    time, heights = _occluded(drop, 60.0, flight=2, seen=4)
+    analysis = analyse_bounces(time, heights, contact_height_m=BALL_RADIUS_M)
+    assert analysis.impacts["impact"].tolist() == [1]
+    with pytest.raises(InputError) as refused:
+        video_limits.select_resolved_impacts(analysis, "clip.avi", 1.0 / 4.0)
+    message = str(refused.value)
+    assert message.startswith("clip.avi: not analysable: no impact can be measured: impact 1: the flight before it")
+    assert "; flight 2 has fewer than 5 samples: the bounce sequence ends before it;" in message

@@ -400,7 +400,8 @@ def select_resolved_impacts(analysis, source, frame_interval_s, unclean=None):
     Raises
     ------
     InputError
-        When no impact is measured: nothing is left to report; the message gives each impact's reason.
+        When no impact is measured: nothing is left to report; the message gives each impact's reason, and the
+        analysis's notes on the flights it could not fit (before its first flight, after the sequence's end).
     """
     spans = flight_spans(analysis, frame_interval_s)
     problems = [_impact_problems(row, before, after, frame_interval_s)
@@ -420,6 +421,10 @@ def select_resolved_impacts(analysis, source, frame_interval_s, unclean=None):
         advice = [item for item in advice if item != TRACKER_HELP]
         why = f"; the frames not clean: {unclean}" if unclean and tracking else ""
         help_ = f"; {TRACKER_HELP}" if tracking else ""
+        # the impacts the analysis found no flights for: before the first fitted flight, after the sequence's end
+        cuts = [note for note in analysis.summary.get("notes") or []
+                if "the fit starts with flight" in note or "sequence ends before" in note]
+        said += "".join(f"; {note}" for note in cuts)
         raise InputError(f"{shown_path(source)}: not analysable: no impact can be measured: {said}"
                          f"{'; ' + '; '.join(advice) if advice else ''}{why}{help_}")
     impacts = analysis.impacts.copy()
