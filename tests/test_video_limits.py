@@ -478,3 +478,30 @@ def test_a_refusal_names_the_flights_the_analysis_could_not_fit(drop):
     message = str(refused.value)
     assert message.startswith("clip.avi: not analysable: no impact can be measured: impact 1: the flight before it")
     assert "; flight 2 has fewer than 5 samples: the bounce sequence ends before it;" in message
+
+
+def test_a_flight_hidden_but_for_4_frames_costs_its_two_impacts_and_the_later_ones_are_measured(drop):
+    """Flight 2 seen in 4 frames (fewer than a flight's fit needs: the analysed sequence ended before it, and
+    every later impact was lost): the samples after it are analysed as a sequence of their own, numbered from the
+    release by the time between the two (one flight); impacts 2 and 3 beside the hidden flight keep rows with no
+    e and the reason, impacts 4-6 are measured within tolerance of the generator's e."""
+    from dropfit.pipeline import fit_analysis
+
+    time, heights = _occluded(drop, 60.0, flight=2, seen=4)
+    trajectory = make_trajectory(time, heights, "clip.avi", "scale given",
+                                 {"video": "clip.avi", "ball_radius_m": BALL_RADIUS_M})
+    trajectory["quality"] = ("time", np.where(np.isfinite(heights), 0, 1).astype(np.int8))
+    analysis = analyse_trajectory(trajectory)
+    impacts = analysis.impacts.set_index("impact")
+    assert impacts.index.tolist()[:6] == [1, 2, 3, 4, 5, 6]
+    for number in (2, 3):
+        assert not impacts.loc[number, "in_fit"] and np.isnan(impacts.loc[number, "e"])
+        assert "too few to fit (hidden or lost)" in impacts.loc[number, "note"]
+    for number in (1, 4, 5, 6):
+        assert impacts.loc[number, "in_fit"]
+        assert abs(impacts.loc[number, "e"] - drop.impacts["e"].iloc[number - 1]) < E_TOLERANCE
+    assert any(note.startswith("flight 2 is seen in") for note in analysis.summary["notes"])
+    restitution = fit_analysis(analysis, trajectory.attrs)["restitution"]
+    assert restitution["n_impacts"] == int(analysis.impacts["in_fit"].sum()) >= 4
+    true_e = drop.impacts["e"].iloc[:6]
+    assert true_e.min() - E_TOLERANCE < restitution["e"]["value"] < true_e.max() + E_TOLERANCE

@@ -32,8 +32,10 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 
 import numpy as np
+import pandas as pd
 
 from ..analysis import estimate_noise, se_column_name
 from ..errors import InputError, shown_path
@@ -304,10 +306,15 @@ def _flight_problem(side, span, clean, frame_interval_s):
 
 
 def _impact_problems(impacts_row, frames_before, frames_after, frame_interval_s):
-    """The problems (:func:`_flight_problem`) of the flights before and after one impact: a dict, by side."""
+    """The problems (:func:`_flight_problem`) of the flights before and after one impact: a dict, by side. A
+    flight not fitted (NaN span: seen in too few frames, :func:`join_later_sequence`) is one."""
     problems = {}
     for side, span, clean in (("before", frames_before, impacts_row["n_samples_before"]),
                               ("after", frames_after, impacts_row["n_samples_after"])):
+        if not np.isfinite(span):
+            problems[side] = (f"the flight {side} it is seen in {int(clean)} frames, too few to fit (hidden or lost)",
+                              TRACKER_HELP)
+            continue
         problem = _flight_problem(side, span, clean, frame_interval_s)
         if problem is not None:
             problems[side] = problem
@@ -354,14 +361,112 @@ def flight_spans(analysis, frame_interval_s):
         Per impact, the frame intervals of the flight before it (the drop: from its apex; a first flight that
         follows a bounce: from its start) and of the flight after it (the last: twice its rise to the apex).
     """
-    touchdown = analysis.impacts["t_touchdown_s"].to_numpy()
-    liftoff = analysis.impacts["t_liftoff_s"].to_numpy()
-    apex = analysis.flights["t_apex_s"].to_numpy()
-    first_start = min(apex[0], analysis.flights["t_start_s"].iloc[0]) \
-        if analysis.summary.get("first_flight_is_a_bounce") else apex[0]
-    starts = np.concatenate([[first_start], liftoff[:-1]])
-    ends = np.append(touchdown[1:], liftoff[-1] + 2.0 * (apex[len(liftoff)] - liftoff[-1]))
-    return (touchdown - starts) / frame_interval_s, (ends - liftoff) / frame_interval_s
+    impacts, flights = analysis.impacts, analysis.flights
+    touchdown = impacts["t_touchdown_s"].to_numpy()
+    liftoff = impacts["t_liftoff_s"].to_numpy()
+    numbers = impacts["impact"].to_numpy(int)
+    flight_rows = {int(number): row for row, number in enumerate(flights["flight"])}
+    apex = flights["t_apex_s"].to_numpy()
+    start, end = flights["t_start_s"].to_numpy(), flights["t_end_s"].to_numpy()
+    bounce = bool(analysis.summary.get("first_flight_is_a_bounce"))
+    before, after = np.full(numbers.size, np.nan), np.full(numbers.size, np.nan)
+    for i, number in enumerate(numbers):
+        previous, following = (np.flatnonzero(numbers == number + step) for step in (-1, 1))
+        if number - 1 in flight_rows:  # (NaN: a flight not fitted, seen in too few frames, join_later_sequence)
+            row = flight_rows[number - 1]
+            if previous.size and np.isfinite(liftoff[previous[0]]):  # a bounce: from the lift-off of the impact before
+                began = liftoff[previous[0]]
+            else:  # the first flight of a sequence: the drop from its apex (a bounce rising into it: from its start)
+                began = min(apex[row], start[row]) if (bounce or i > 0) else apex[row]
+            before[i] = (touchdown[i] if np.isfinite(touchdown[i]) else end[row]) - began
+        if number in flight_rows:
+            row = flight_rows[number]
+            lift = liftoff[i] if np.isfinite(liftoff[i]) else start[row]
+            ended = touchdown[following[0]] if following.size and np.isfinite(touchdown[following[0]]) else \
+                lift + 2.0 * (apex[row] - lift)  # the last: twice its rise to the apex
+            after[i] = ended - lift
+    return before / frame_interval_s, after / frame_interval_s
+
+
+#: Relative tolerance on the duration of a hidden flight, between those of the flights on either side of it: with
+#: e ≤ 0.9 two hidden flights (1.9 times the first) outlast the one before (at most 1.11 times) by far more.
+HIDDEN_FLIGHT_TOLERANCE = 0.1
+#: How the analysis says its sequence ends before a flight with too few samples (``flight`` is its number).
+_SPARSE_FLIGHT_CUT = re.compile(r"flight (?P<flight>\d+) has fewer than \d+ samples(?: once its outliers of the flight "
+                                r"fit are left out)?: the bounce sequence ends before it")
+
+
+def sparse_flight_cut(analysis):
+    """The number of the flight, too sparsely sampled to fit, before which the analysed sequence ends (from its
+    notes), or None."""
+    for note in analysis.summary.get("notes") or []:
+        match = _SPARSE_FLIGHT_CUT.fullmatch(note)
+        if match:
+            return int(match["flight"])
+    return None
+
+
+def join_later_sequence(analysis, later, hidden_flight, seen_s):
+    """An analysis whose sequence ended before flight ``hidden_flight`` (seen in too few frames: a hand or a
+    passer-by before the ball; ``seen_s``: the times, s, of the samples after the first sequence) joined with
+    ``later``, the analysis of the samples
+    after the first sequence, whose first fitted flight follows the hidden one: the impacts on either side of the hidden flight are not measured, the ones
+    after it are (renumbered from the release), as if the flight had been filmed too poorly (see
+    :func:`select_resolved_impacts`). The covariances are joined block-diagonally (the two sequences share no
+    fitted parameter); the summary stays the first sequence's, with a note.
+
+    Returns
+    -------
+    dropfit.analysis.BounceAnalysis or None
+        None when the time between the two sequences does not hold one flight (as long as the flight after it, at
+        most as long as the one before): the numbering of the later impacts would be a guess.
+    """
+    # the gap between the sequences must hold one flight: as long as the one after it at least, and at most as
+    # long as the one before it (a ball's flights shorten), within HIDDEN_FLIGHT_TOLERANCE
+    last, first = analysis.flights.iloc[-1], later.flights.iloc[0]
+    before_s = 2.0 * (last["t_end_s"] - last["t_apex_s"])
+    after_s = 2.0 * (later.impacts["t_touchdown_s"].iloc[0] - first["t_apex_s"])
+    gap_s = first["t_apex_s"] - 0.5 * after_s - last["t_end_s"]
+    if not (1.0 - HIDDEN_FLIGHT_TOLERANCE) * after_s <= gap_s <= (1.0 + HIDDEN_FLIGHT_TOLERANCE) * before_s:
+        return None
+    shift = hidden_flight + 1 - int(first["flight"])  # later's first fitted flight follows the hidden one
+    # the frames that saw the hidden flight: in the middle 80 % of it, clear of both contacts
+    seen_s = np.asarray(seen_s, dtype=float)
+    hidden_samples = int(np.count_nonzero((seen_s > last["t_end_s"] + 0.1 * gap_s)
+                                          & (seen_s < last["t_end_s"] + 0.9 * gap_s)))
+    first_later = int(later.impacts["impact"].iloc[0])
+    impacts = later.impacts.copy()
+    impacts["impact"] = impacts["impact"] + shift
+    flights = later.flights.copy()
+    flights["flight"] = flights["flight"] + shift
+    # the two impacts beside the hidden flight: rows with no measurement, the reason in their note
+    hidden = pd.DataFrame({"impact": [hidden_flight, hidden_flight + 1], "in_fit": False, "contact_resolvable": False,
+                           "n_samples_before": [float(analysis.flights["n_samples"].iloc[-1]), hidden_samples],
+                           "n_samples_after": [hidden_samples, float(later.flights["n_samples"].iloc[0])],
+                           "note": ""})  # the reason: select_resolved_impacts
+    joined_impacts = pd.concat([analysis.impacts, hidden, impacts], ignore_index=True)
+    joined_flights = pd.concat([analysis.flights, flights], ignore_index=True)
+    n1, n2 = len(analysis.impacts) + 2, len(impacts)
+    n0, n = n1 - 2, n1 + n2
+    e_covariance = np.zeros((n, n))
+    e_covariance[:n0, :n0], e_covariance[n1:, n1:] = analysis.e_covariance, later.e_covariance
+    contact = np.zeros((2 * n, 2 * n))
+    rows = np.r_[0:n0, n: n + n0], np.r_[n1:n, n + n1: 2 * n]
+    contact[np.ix_(rows[0], rows[0])] = analysis.e_contact_covariance
+    contact[np.ix_(rows[1], rows[1])] = later.e_contact_covariance
+    note = (f"flight {hidden_flight} is seen in {hidden_samples} frames, too few to fit (hidden or lost): impacts "
+            f"{hidden_flight} and {hidden_flight + 1} beside it are not measured; impacts {first_later + shift}-"
+            f"{int(impacts['impact'].iloc[-1])} after it are measured from the flights that follow")
+    notes = [item for item in analysis.summary.get("notes") or [] if not _SPARSE_FLIGHT_CUT.fullmatch(item)]
+    summary = dict(analysis.summary, n_impacts=n1 + n2, notes=notes + [note],
+                   later_sequence={"first_impact": first_later + shift, "hidden_flight": hidden_flight,
+                                   "contact_height_m": later.summary.get("contact_height_m"),
+                                   "notes": list(later.summary.get("notes") or [])})
+    return dataclasses.replace(analysis, impacts=joined_impacts, flights=joined_flights, e_covariance=e_covariance,
+                               e_contact_covariance=contact,
+                               e_drag_covariance=np.concatenate([analysis.e_drag_covariance, np.zeros(2),
+                                                                 later.e_drag_covariance]),
+                               summary=summary)
 
 
 def select_resolved_impacts(analysis, source, frame_interval_s, unclean=None):
