@@ -152,3 +152,80 @@ def test_good_run_recovers_the_scenario_e(tmp_path):
     assert fit["restitution"]["n_impacts"] >= 3
     # no stray temporary files
     assert [p.name for p in (tmp_path / "small").iterdir() if p.name.startswith(".")] == []
+
+
+# --- refusals printed whole --------------------------------------------------------------------------
+
+#: The longest line the command line printed before (characters after ``dropfit: error: ``): it cut a
+#: 726-character refusal in its middle, where its diagnosis and its options were.
+OLD_LINE_LIMIT = 284
+
+
+def _video_trajectory(path, time_s, height_m, quality):
+    """A video's trajectory (as dropfit measure writes it) at ``path`` (NetCDF), named after a video beside it
+    whose path is long (a lab's folders), heights in m, ``quality`` 0 where measured."""
+    from dropfit.heightlog import make_trajectory
+    from dropfit.stages import write_trajectory
+
+    video = str(path.parent / ("a lab's recordings of " + "the ball drop " * 4).replace(" ", "_") / "clip.mov")
+    trajectory = make_trajectory(time_s, height_m, video, "scale from the ball's diameter",
+                                 {"video": video, "ball_radius_m": 0.02,
+                                  "frames_unclean": "the ball merged with something (its shadow, a hand) or partly "
+                                                    "hidden in 60% of the frames, not found in 11% of the frames"})
+    trajectory["quality"] = ("time", np.asarray(quality, np.int8))
+    write_trajectory(path, trajectory)
+    return video
+
+
+def _printed_refusal(capsys, trajectory_path, tmp_path):
+    """The line ``dropfit analyse`` prints for the trajectory at ``trajectory_path`` (and that it exits 1)."""
+    assert main(["analyse", str(trajectory_path), "--impacts", str(tmp_path / "impacts.csv"), "--flights",
+                 str(tmp_path / "flights.csv"), "--summary", str(tmp_path / "analysis.json")]) == 1
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("dropfit: error: ")
+    return lines[0][len("dropfit: error: "):]
+
+
+def test_a_video_that_does_not_fall_with_g_is_refused_in_one_whole_line(tmp_path, capsys):
+    """The not-free-fall refusal of a poorly tracked video (a ball falling with 5 m/s², measured in a third of its
+    frames) is longer than the old limit: it is printed whole, its diagnosis and every option the tracker takes."""
+    from dropfit.heightlog import read_trajectory
+    from dropfit.video.limits import TRACKER_HELP, not_free_fall
+
+    time = np.arange(240) / 60.0
+    flight = time % 0.8
+    height = 1.0 - 0.5 * 5.0 * (flight - 0.4) ** 2 - 0.6 + np.random.default_rng(3).normal(0.0, 1e-4, time.size)
+    quality = np.where(np.arange(time.size) % 3 == 0, 0, 1)
+    video = _video_trajectory(tmp_path / "trajectory.nc", time, height, quality)
+    line = _printed_refusal(capsys, tmp_path / "trajectory.nc", tmp_path)
+    assert len(line) > OLD_LINE_LIMIT, line
+    # only the path, user text, is shortened (at its start, keeping the file name)
+    assert "not g" in line and line.endswith(TRACKER_HELP) and "\u2026" not in line.split("clip.mov")[1]
+    assert "in the frames not measured cleanly the ball merged with something" in line
+    assert video.replace("\\", "/").rsplit("/", 1)[0][-20:] in line  # the path shortened at its start only
+    acceleration = float(line.split("falls with ")[1].split(" m/s")[0])
+    assert line == not_free_fall(video, acceleration, read_trajectory(tmp_path / "trajectory.nc"))
+
+
+def test_a_video_with_no_measurable_impact_is_refused_in_one_whole_line(tmp_path, capsys):
+    """A 30 frames/s video whose flights are each measured in a fifth of their frames: every impact's reason, the
+    frames not clean and the tracker's options, printed whole."""
+    from dropfit.video.limits import TRACKER_HELP
+
+    fps, g, e = 120.0, 9.80665, 0.8
+    time = np.arange(int(2.4 * fps)) / fps
+    height = np.full(time.size, np.nan)
+    t_apex, apex = 0.0, 0.82
+    while t_apex < time[-1]:
+        half = np.sqrt(2 * (apex - 0.02) / g)
+        inside = (time >= t_apex - half) & (time < t_apex + half)
+        height[inside] = apex - 0.5 * g * (time[inside] - t_apex) ** 2
+        apex = 0.02 + e ** 2 * (apex - 0.02)
+        t_apex += half + np.sqrt(2 * (apex - 0.02) / g)
+    clean = np.arange(time.size) % 5 == 0
+    height = np.where(clean, height + np.random.default_rng(4).normal(0.0, 1e-4, time.size), np.nan)
+    _video_trajectory(tmp_path / "trajectory.nc", time, height, np.where(clean, 0, 1))
+    line = _printed_refusal(capsys, tmp_path / "trajectory.nc", tmp_path)
+    assert len(line) > OLD_LINE_LIMIT, line
+    assert "no impact can be measured: impact 1: " in line and "; impact 2: " in line
+    assert line.endswith(TRACKER_HELP) and "\u2026" not in line.split("clip.mov")[1]

@@ -175,3 +175,32 @@ def test_heights_in_a_target_plane_go_back_to_a_tilted_cameras_rows():
     columns, rows = view.to_px(across_m.ravel(), up_m.ravel())
     heights = up_m.ravel() * chosen_m_per_px / plane_m_per_px  # heights are the plane's rows × the chosen scale
     assert np.abs(scene.image_row_px(heights, columns) - rows).max() < 1e-6
+
+
+def test_a_video_refused_by_run_leaves_its_tracked_table_and_a_sheet_of_its_frames(drop, tmp_path, capsys):
+    """``dropfit run --record-failure`` of a 15 frames/s clip (every flight too briefly filmed: refused): its
+    ``track.csv`` is the tracked table, a row per frame, and its contact sheet shows the frames, the ball circled
+    in its quality's colour, under the refusal (before: both were failure records, the sheet a strip of text)."""
+    import pandas as pd
+
+    video = render_drop_clip(tmp_path / "slow.avi", drop, fps=15.0).attrs["video_path"]
+    out = tmp_path / "results"
+    assert main(["run", video, "--out", str(out), "--ball-radius-m", str(CLIP_BALL_RADIUS_M), "--record-failure"]) == 0
+    message = capsys.readouterr().err.strip().splitlines()[-1][len("dropfit: error: "):]
+    assert "not analysable" in message
+    table = pd.read_csv(out / "track.csv")
+    assert len(table) == len(stages.read_table(out / "track.csv", "tracked table")) > 20
+    assert {"frame", "x_px", "y_px", "quality"} <= set(table.columns) and (table["quality"] == QUALITY_OK).sum() > 10
+    sheet = cv2.imread(str(out / "contact_sheet.png"))
+    tile_height = TILE_BOX_PX[1] + LABEL_HEIGHT_PX
+    assert sheet.shape[1] == SHEET_COLUMNS * TILE_BOX_PX[0] and sheet.shape[0] > SHEET_TILES // SHEET_COLUMNS * tile_height
+    tiles = sheet[-SHEET_TILES // SHEET_COLUMNS * tile_height:]
+    circled = np.all(np.abs(tiles.astype(int) - QUALITY_COLOURS_BGR[QUALITY_OK]) <= 30, axis=2)
+    assert np.count_nonzero(circled) > 100  # the balls' green circles, drawn on the frames
+    assert np.count_nonzero(tiles.max(axis=2) > 40) > 0.3 * tiles.shape[0] * tiles.shape[1]  # frames, not a blank
+    scene = stages.scene_from_results(out)
+    assert scene.caption[-1] == f"refused: {message}"
+    page = (out / "report.html").read_text(encoding="utf-8")
+    assert "not analysable" in page and "contact sheet of the video" in page
+    for name in ("trajectory.nc", "impacts.csv", "fit.json"):
+        assert (out / name).exists()

@@ -208,12 +208,14 @@ def test_a_light_ball_whose_first_flights_are_too_blurred_keeps_its_impacts_numb
 
 def test_a_light_ball_clip_too_blurred_is_refused_in_one_line_with_the_cause(tmp_path):
     """Seed 4 of the white ball: no flight after the first two is measured cleanly in enough frames; the refusal
-    names the impact by its number from the release, the frame rate that would give enough clean frames, what the
+    names each impact by its number from the release with its reason, the frame rate that would give enough clean frames, what the
     frames not measured cleanly were, and the options that help the tracker."""
     path, clip = phone_clip("white_pingpong_mov", tmp_path, seed=4, downscale=0.5)
     physics = clip["physics"]
-    refusal = (r"not analysable: impact 2: clean frames in the flight before it: 5 < 7 \(film at 4[23] frames/s or more, "
-               r"with a shorter exposure\); the frames not clean: .*too blurred to measure on its lit side in \d+% of "
+    # each impact with its own reason, the advice once
+    refusal = (r"not analysable: no impact can be measured: impact 2: clean frames in the flight before it: 5 < 7; "
+               r"impact 3: clean frames in the flight after it: \d < 7; .*; film at 4[23] frames/s or more, with a "
+               r"shorter exposure; the frames not clean: .*too blurred to measure on its lit side in \d+% of "
                r"the frames.*; see the contact sheet \(dropfit overlay\); help the tracker with --ball-at-px")
     with pytest.raises(InputError, match=refusal) as refused:
         dropfit.analyse_recording(path, ball_radius_m=physics["radius_m"], ball_mass_kg=physics["mass_kg"],

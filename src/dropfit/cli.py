@@ -320,6 +320,11 @@ def _bound_values(argv):
     return bound
 
 
+#: Longest argparse message quoted in a failure record, characters: its list of choices ("choose from …") is
+#: the advice, and a value given on the command line is rarely long.
+USAGE_MESSAGE_LIMIT = 600
+
+
 def _usage_failure(argv, error):
     """A command line the parser refused: argparse's usage and message and exit status 2; under
     ``--record-failure``, when the outputs can be read from the command line, its failure records
@@ -328,7 +333,9 @@ def _usage_failure(argv, error):
         try:
             args, _ = build_parser(lenient=True).parse_known_args(argv)
             outputs = _outputs(args)
-            line = one_line(f"{_input_name(args)}: {shown(str(error))}; see dropfit {args.command} --help")
+            # argparse's message is the diagnosis (with the value given, short): quoted whole up to a generous limit
+            line = one_line(f"{_input_name(args)}: {shown(str(error), USAGE_MESSAGE_LIMIT)}; see dropfit {args.command} "
+                            f"--help")
         except (_UsageError, InputError, AttributeError, KeyError, TypeError):
             outputs = []
         if outputs:
@@ -352,6 +359,7 @@ def main(argv=None):
     outputs = _outputs(args)
     before = {path: _stat(path) for path in outputs}
     keepable = {getattr(args, name) for name in _KEPT_ON_FAILURE.get(args.command, [])}
+    tracked = None
     try:
         with warnings.catch_warnings():
             if not sys.warnoptions:  # numerical warnings are for developers (python -W shows them)
@@ -359,6 +367,7 @@ def main(argv=None):
             _run(args)
     except InputError as error:
         message = one_line(str(error))
+        tracked = getattr(error, "tracked", None)  # a video refused after tracking (dropfit run)
     except Exception as error:  # noqa: BLE001 — a bug, not the user's fault
         # the traceback goes to the log (standard error); the line, the failure records and the batch
         # summary name the input and the error only
@@ -378,9 +387,14 @@ def main(argv=None):
     if not record:
         return 1
     figure = _failure_figure(args)
+    refused_video = args.command == "run" and tracked is not None
+    drawn = {os.path.join(args.out, name) for name in ("track.csv", "contact_sheet.png")} if refused_video else set()
     for path in outputs:
-        if path not in kept:
+        if path not in kept and path not in drawn and not (refused_video and path.endswith("report.html")):
             write_failure(path, message, figure)
+    if refused_video:  # its tracked table and its frames drawn, under the refusal read from the records above
+        figure = stages.record_refused_video(args.recording, args.out, tracked, message)
+        write_failure(os.path.join(args.out, "report.html"), message, figure)
     return 0
 
 

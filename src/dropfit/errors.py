@@ -9,8 +9,11 @@ import unicodedata
 QUOTE_LIMIT = 60
 #: Longest path in a message, characters (its end, with the file name, is kept).
 PATH_LIMIT = 100
-#: Longest message line, characters, without the ``dropfit: error: `` prefix (the line stays ≤ 300).
-LINE_LIMIT = 284
+#: Longest message line, characters: a guard only, far above any message dropfit composes (its longest, a
+#: refused video's with the tracker's help, are about 1000). A message is never shortened for length: the user
+#: text it quotes is (:func:`shown`, :func:`shown_path`), its diagnosis and advice are not. The old limit of 284
+#: cut a 726-character refusal in its middle, where the diagnosis and the options were.
+LINE_LIMIT = 4000
 #: Terminal escape sequences (CSI such as ``ESC[31m``, OSC such as a window title, and two-byte ones).
 _ESCAPES = re.compile(r"\x1b\[[0-?]*[ -/]*[@-~]|\x1b\][^\x07\x1b]*(?:\x07|\x1b\\)?|\x1b[@-Z\\-_]|\x9b[0-?]*[ -/]*[@-~]")
 _LINE_BREAKS = re.compile(r"[\r\n\t\v\f\x85\u2028\u2029]+")
@@ -79,6 +82,8 @@ def shown_path(path):
 
 
 def one_line(message):
-    """A whole message as printed and recorded: :func:`shown`, at most :data:`LINE_LIMIT` characters,
-    shortened in the middle so that the file named at its start and the advice at its end stay."""
+    """A whole message as printed and recorded, on one line: :func:`shown` (escape sequences, line breaks
+    and control characters made harmless), whole up to :data:`LINE_LIMIT` characters, a guard against user
+    text quoted without :func:`shown` (shortened in the middle, so that the file named at its start and the
+    advice at its end stay)."""
     return shown(message, LINE_LIMIT, keep="both")

@@ -289,6 +289,7 @@ def analyse_trajectory(trajectory, settings=None, source=None):
             raise
         raise InputError(video_limits.analysis_refusal(str(error), trajectory)) from None
     if "video" in attrs:  # a video's later bounces may be too briefly filmed to resolve
+        analysis = _across_hidden_flights(analysis, time, trajectory["y"].values, seen, options)
         # the limits count captures: a 30 Hz clip in a 60 fps file films a flight in half as many frames
         captures = capture_interval(time, trajectory["y_seen"].values if "y_seen" in trajectory else None)
         analysis = video_limits.select_resolved_impacts(analysis, attrs["video"], captures,
@@ -305,6 +306,34 @@ def analyse_trajectory(trajectory, settings=None, source=None):
     summary = dict(analysis.summary, analysis_options=record, gravity=settings.site_gravity().record(),
                    ball_size_note=_ball_size_note(analysis.summary, attrs))
     return dataclasses.replace(analysis, summary=summary)
+
+
+#: Most flights seen in too few frames to fit that a video's analysis is carried across.
+MAX_HIDDEN_FLIGHTS = 3
+
+
+def _across_hidden_flights(analysis, time_s, height_m, seen_height_m, options):
+    """A video's analysis carried across flights seen in too few frames to fit (a hand or a passer-by before the
+    ball): where its sequence ends before such a flight, the samples after it are analysed as a sequence of their
+    own and joined (:func:`dropfit.video.limits.join_later_sequence`); the impacts beside the hidden flight are
+    left out by the limits, those after it measured. Unchanged when the later samples give no sequence that
+    starts at the flight after the hidden one."""
+    for _ in range(MAX_HIDDEN_FLIGHTS):
+        hidden = video_limits.sparse_flight_cut(analysis)
+        if hidden is None or int(analysis.flights["flight"].iloc[-1]) != hidden - 1:
+            return analysis
+        end = float(analysis.flights["t_end_s"].iloc[-1])
+        later = time_s > end
+        try:
+            rest = analyse_bounces(time_s[later], height_m[later],
+                                   seen_height_m=None if seen_height_m is None else seen_height_m[later], **options)
+        except InputError:
+            return analysis
+        joined = video_limits.join_later_sequence(analysis, rest, hidden, time_s[later & np.isfinite(height_m)])
+        if joined is None:
+            return analysis
+        analysis = joined
+    return analysis
 
 
 #: A step between two frames longer than this (m) is the ball moving: far above a still ball's centre noise

@@ -282,7 +282,6 @@ def _notes(fit, summary, attrs):
         notes.append(f"{attrs['frames'] - attrs['frames_usable']} of {attrs['frames']} video frames not measured "
                      f"cleanly enough to use{why}")
     notes += [str(note) for note in summary.get("notes") or []]
-    notes += [str(note) for note in summary.get("impacts_dropped") or []]
     restitution = fit["restitution"]
     notes += [f"impact {item['impact']} left out of every fit: {item['note']}"
               for item in restitution.get("impacts_excluded") or []]
@@ -355,7 +354,8 @@ def _sections(result):
         ("flights fitted", str(len(result.flights))),
         ("impacts", f"{restitution['n_impacts']} of {restitution['n_impacts_total']} in the fits"
                     + ("" if not excluded else "; left out: " + ", ".join(str(item['impact']) for item in excluded))),
-        ("impacts dropped", "; ".join(summary.get("impacts_dropped") or []) or "none"),
+        ("impacts not measured", f"{summary.get('impacts_unmeasured') or 0} (a flight beside each too poorly filmed: "
+                                 f"the reasons are in the notes)" if summary.get("impacts_unmeasured") else "none"),
     ])
     rows = [("model", f"{restitution['model']}: {restitution['law']} ({restitution['description']})"),
             ("e", _estimate_text(restitution["e"])),

@@ -198,8 +198,13 @@ def run(recording, out_dir, ball=None, settings=None, sample_id=None, tracked=No
     refusal = tracking_refusal
     if video and tracked is None and refusal is None:
         tracked, refusal = track_or_refusal(recording, settings, ball)
-    result = process_recording(recording, ball, settings, sample_id=sample_id, tracked=tracked,
-                               tracking_refusal=refusal)
+    try:
+        result = process_recording(recording, ball, settings, sample_id=sample_id, tracked=tracked,
+                                   tracking_refusal=refusal)
+    except InputError as error:
+        if video and tracked is not None:  # what was tracked shows why: its failure records keep it (record_refused_video)
+            error.tracked = tracked
+        raise
     say_how_read(result.trajectory)
     fusion = result.fusion
     picture_refused = fusion is not None and fusion.picture_refusal is not None
@@ -517,13 +522,30 @@ def _record_failure(row, out, message, tracked):
     figure = None
     if "track.csv" in names:
         if tracked is not None:
-            write_table(out / "track.csv", tracked.table)
-            try:
-                overlay(row["path"], out / "contact_sheet.png", results_dir=out)
-                figure = (out / "contact_sheet.png").read_bytes()
-            except InputError:
-                write_failure(out / "contact_sheet.png", message)
+            figure = record_refused_video(row["path"], out, tracked, message)
         else:
             write_failure(out / "track.csv", message)
             write_failure(out / "contact_sheet.png", message)
     write_failure(out / "report.html", message, figure)
+
+
+def record_refused_video(video, out, tracked, message):
+    """What a video refused after tracking leaves in its results directory ``out``, beside the failure records
+    of the other files (written first: their message is the contact sheet's caption): its tracked table
+    (``track.csv``) and a contact sheet of its frames, the ball drawn with each frame's quality, under the
+    refusal (:func:`overlay`). Returns the sheet (PNG bytes) for the report's failure page, or None when it could
+    not be drawn (then ``contact_sheet.png`` is the failure record of ``message``, the refusal)."""
+    from .files import write_failure
+
+    out = Path(out)
+    write_table(out / "track.csv", tracked.table)
+    try:
+        overlay(video, out / "contact_sheet.png", results_dir=out)
+        return (out / "contact_sheet.png").read_bytes()
+    except Exception as error:  # noqa: BLE001 — the refusal, not a failure to draw it, is the recording's message
+        if not isinstance(error, InputError):  # a bug: its traceback to the log
+            import traceback
+
+            traceback.print_exc()
+        write_failure(out / "contact_sheet.png", message)
+        return None

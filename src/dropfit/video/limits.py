@@ -9,12 +9,15 @@ way to a wrong e is a flight sampled by too few clean frames (a low frame rate; 
 near the impacts count as clean since the tracker measures streaks as ``blurred``). The limits therefore use only what the tracker and the
 analysis measure, never the ground truth:
 
-* the tracked ball radius (px) and the fraction of frames measured cleanly, checked on the tracked
-  table by :func:`check_recording`: below them the whole recording is refused;
-* how many frame intervals each flight lasts and how many clean frames it has, checked per impact
-  by :func:`select_resolved_impacts`: the impacts from the first under-sampled flight on are dropped with the reason stated, and the
-  recording is refused only when its first impact is among them (later bounces are shorter, so
-  dropping them first loses the least).
+* the tracked ball radius (px) and the number of clean frames, checked on the tracked table by
+  :func:`check_recording`: below them (a blob smaller than any ball tracked, fewer clean frames than the two
+  flights of one impact need) no impact can be measured and the whole recording is refused;
+* how many frame intervals each flight lasts, how many clean frames it has and which fraction of its frames
+  they are, checked per impact by :func:`select_resolved_impacts`: impact n is measured from flights n − 1
+  and n alone, so a flight too poorly filmed costs the two impacts beside it (each keeps its row, with no e
+  and the reason), never the others; the recording is refused only when no impact is measured, with each
+  impact's reason. The fraction of clean frames is judged per flight: a hand holding the ball, an occlusion
+  in one flight or an empty scene after the drop says nothing about the other flights.
 
 The centre noise relative to the travel (also measured, for the sweep's table) sets no limit: it
 stayed under 5 × 10⁻³ wherever the tracker found the ball, was 1 × 10⁻⁴ in the clips whose e was
@@ -29,8 +32,10 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import re
 
 import numpy as np
+import pandas as pd
 
 from ..analysis import estimate_noise, se_column_name
 from ..errors import InputError, shown_path
@@ -42,7 +47,8 @@ from .quality import (QUALITY_DUPLICATE, QUALITY_LOST, QUALITY_OCCLUDED, QUALITY
 #: 1.25 px in no clean frame; drawn with 1.5–2 px it is tracked as 2.2–2.3 px (the edge threshold
 #: widens it) and e is still right. No ball was tracked smaller, so a smaller blob is not a ball.
 MIN_BALL_RADIUS_PX = 2.0
-#: Smallest fraction of the frames from the first clean one to the last that are clean. Sweep (the colour
+#: Smallest fraction of a flight's frames that are clean (judged per flight, :func:`select_resolved_impacts`;
+#: the sweep measured it over the clip, whose flights were all alike). Sweep (the colour
 #: tracker, 2026-11-23): e right wherever 49 % or more were clean (noise σ = 30 grey levels: 49–61 %); a
 #: ball drawn with radius 1–1.5 px, tracked in 30–41 % of the frames, gave e₁ 7 standard errors off
 #: once (38 %) and 2.4 once (33 %). The sweep's table was run with the earlier limit of 30 %.
@@ -62,8 +68,11 @@ MIN_FRAME_INTERVALS_PER_FLIGHT = 8
 #: before its contact and gives e within 5 × 10⁻⁵ (tests/test_videolog.py).
 MIN_CLEAN_FRAMES_PER_FLIGHT = 7
 #: Columns of an impact that the flight before it decides (with their se and interval): NaN where that
-#: flight is too sparsely sampled and a later impact is resolved (:func:`select_resolved_impacts`).
-UNRESOLVED_IMPACT_COLUMNS = ("v_in_m_s", "e", "flight_time_ratio", "t_contact_ms")
+#: flight is too poorly filmed (:func:`select_resolved_impacts`). The flights' own apex heights and durations
+#: (``h_before_m``, ``h_after_m``, ``flight_time_after_s``) keep their fitted values and standard errors.
+UNRESOLVED_IMPACT_COLUMNS = ("v_in_m_s", "e", "e_height", "flight_time_ratio", "t_contact_ms")
+#: Columns of an impact that the flight after it decides: NaN where that flight is too poorly filmed.
+UNRESOLVED_AFTER_COLUMNS = ("v_out_m_s", "e", "e_height", "flight_time_ratio", "t_contact_ms")
 #: Fewest clean frames in a recording: the two flights around a first impact.
 MIN_CLEAN_FRAMES = 2 * MIN_CLEAN_FRAMES_PER_FLIGHT
 
@@ -109,7 +118,8 @@ def recording_measures(table):
 
 
 def recording_violations(measures):
-    """The recording-wide limits that ``measures`` (from :func:`recording_measures`) break.
+    """The recording-wide limits that ``measures`` (from :func:`recording_measures`) break: those below which no
+    impact can be measured (the fraction of clean frames is judged per flight, :func:`select_resolved_impacts`).
 
     Returns
     -------
@@ -118,9 +128,8 @@ def recording_violations(measures):
     """
     violations = []
     if measures["clean_frames"] < MIN_CLEAN_FRAMES:
-        violations.append(f"frames measured cleanly: {measures['clean_frames']} < {MIN_CLEAN_FRAMES}")
-    elif not measures["clean_fraction"] >= MIN_CLEAN_FRACTION:
-        violations.append(f"frames measured cleanly: {measures['clean_fraction']:.0%} < {MIN_CLEAN_FRACTION:.0%}")
+        violations.append(f"frames measured cleanly: {measures['clean_frames']} < {MIN_CLEAN_FRAMES} (the two "
+                          f"flights of one impact need {MIN_CLEAN_FRAMES_PER_FLIGHT} each)")
     if np.isfinite(measures["ball_radius_px"]) and measures["ball_radius_px"] < MIN_BALL_RADIUS_PX:
         violations.append(f"tracked ball radius: {measures['ball_radius_px']:.2f} px < {MIN_BALL_RADIUS_PX:g} px")
     return violations
@@ -139,7 +148,7 @@ def check_recording(table, source):
     measures = recording_measures(table)
     violations = recording_violations(measures)
     if violations:
-        few = measures["clean_frames"] < MIN_CLEAN_FRAMES or measures["clean_fraction"] < MIN_CLEAN_FRACTION
+        few = measures["clean_frames"] < MIN_CLEAN_FRAMES
         cause = f" ({unclean_frames(table)}); {TRACKER_HELP}" if few else ""
         raise InputError(f"{shown_path(source)}: not analysable: {'; '.join(violations)}{cause}")
 
@@ -272,6 +281,46 @@ def unclean_frames(table):
     return f"{described}; tracked in {channel}" if channel else described
 
 
+def _flight_problem(side, span, clean, frame_interval_s):
+    """Why one flight around an impact is too poorly filmed to measure, as (diagnosis, advice), or None.
+
+    ``side`` is "before" or "after" (the impact), ``span`` the frame intervals the flight lasts, ``clean`` its
+    clean frames (those in its fit), ``frame_interval_s`` the time between frames (s)."""
+    rate = 1.0 / frame_interval_s
+    if span < MIN_FRAME_INTERVALS_PER_FLIGHT:
+        needed = math.ceil(rate * MIN_FRAME_INTERVALS_PER_FLIGHT / span) if span > 0 else math.inf
+        return (f"the flight {side} it lasts {span:.1f} frame intervals at {rate:.3g} frames/s, fewer than the "
+                f"{MIN_FRAME_INTERVALS_PER_FLIGHT} a flight needs to be told from its impacts",
+                f"film at {needed:g} frames/s or more, in slow motion")
+    if clean < MIN_CLEAN_FRAMES_PER_FLIGHT:
+        # as many frames clean in every frame interval: more frames a second give more clean ones
+        faster = (f"film at {math.ceil(rate * MIN_CLEAN_FRAMES_PER_FLIGHT / clean):g} frames/s or more"
+                  if clean > 0 else "film at a higher frame rate")
+        return (f"clean frames in the flight {side} it: {int(clean)} < {MIN_CLEAN_FRAMES_PER_FLIGHT}",
+                f"{faster}, with a shorter exposure")
+    fraction = min(clean / max(span, 1.0), 1.0)
+    if fraction < MIN_CLEAN_FRACTION:
+        return (f"the flight {side} it is measured cleanly in {fraction:.0%} of its frames < {MIN_CLEAN_FRACTION:.0%}",
+                TRACKER_HELP)
+    return None
+
+
+def _impact_problems(impacts_row, frames_before, frames_after, frame_interval_s):
+    """The problems (:func:`_flight_problem`) of the flights before and after one impact: a dict, by side. A
+    flight not fitted (NaN span: seen in too few frames, :func:`join_later_sequence`) is one."""
+    problems = {}
+    for side, span, clean in (("before", frames_before, impacts_row["n_samples_before"]),
+                              ("after", frames_after, impacts_row["n_samples_after"])):
+        if not np.isfinite(span):
+            problems[side] = (f"the flight {side} it is seen in {int(clean)} frames, too few to fit (hidden or lost)",
+                              TRACKER_HELP)
+            continue
+        problem = _flight_problem(side, span, clean, frame_interval_s)
+        if problem is not None:
+            problems[side] = problem
+    return problems
+
+
 def flight_violation(impacts_row, frames_before, frames_after, frame_interval_s):
     """Why an impact is unresolved, or None if both its flights are sampled densely enough.
 
@@ -283,23 +332,17 @@ def flight_violation(impacts_row, frames_before, frames_after, frame_interval_s)
         How many frame intervals the flights before and after the impact last.
     frame_interval_s : float
         Time between frames in s, for the frame rate that would film the flight long enough.
+
+    Returns
+    -------
+    str or None
+        "impact <n>: <the first flight's problem> (<what to do>)" for the flight before it, else the one after.
     """
-    for side, span, clean in (("before", frames_before, impacts_row["n_samples_before"]),
-                              ("after", frames_after, impacts_row["n_samples_after"])):
-        if span < MIN_FRAME_INTERVALS_PER_FLIGHT:
-            rate = 1.0 / frame_interval_s
-            needed = math.ceil(rate * MIN_FRAME_INTERVALS_PER_FLIGHT / span) if span > 0 else math.inf
-            return (f"impact {int(impacts_row['impact'])}: the flight {side} it lasts {span:.1f} frame intervals at "
-                    f"{rate:.3g} frames/s, fewer than the {MIN_FRAME_INTERVALS_PER_FLIGHT} a flight needs to be told "
-                    f"from its impacts; film at {needed:g} frames/s or more (slow motion)")
-        if clean < MIN_CLEAN_FRAMES_PER_FLIGHT:
-            # as many frames clean in every frame interval: more frames a second give more clean ones
-            rate = 1.0 / frame_interval_s
-            faster = (f"film at {math.ceil(rate * MIN_CLEAN_FRAMES_PER_FLIGHT / clean):g} frames/s or more"
-                      if clean > 0 else "film at a higher frame rate")
-            return (f"impact {int(impacts_row['impact'])}: clean frames in the flight {side} it: {int(clean)} "
-                    f"< {MIN_CLEAN_FRAMES_PER_FLIGHT} ({faster}, with a shorter exposure)")
-    return None
+    problems = _impact_problems(impacts_row, frames_before, frames_after, frame_interval_s)
+    if not problems:
+        return None
+    diagnosis, advice = next(iter(problems.values()))
+    return f"impact {int(impacts_row['impact'])}: {diagnosis} ({advice})"
 
 
 def flight_spans(analysis, frame_interval_s):
@@ -318,23 +361,125 @@ def flight_spans(analysis, frame_interval_s):
         Per impact, the frame intervals of the flight before it (the drop: from its apex; a first flight that
         follows a bounce: from its start) and of the flight after it (the last: twice its rise to the apex).
     """
-    touchdown = analysis.impacts["t_touchdown_s"].to_numpy()
-    liftoff = analysis.impacts["t_liftoff_s"].to_numpy()
-    apex = analysis.flights["t_apex_s"].to_numpy()
-    first_start = min(apex[0], analysis.flights["t_start_s"].iloc[0]) \
-        if analysis.summary.get("first_flight_is_a_bounce") else apex[0]
-    starts = np.concatenate([[first_start], liftoff[:-1]])
-    ends = np.append(touchdown[1:], liftoff[-1] + 2.0 * (apex[len(liftoff)] - liftoff[-1]))
-    return (touchdown - starts) / frame_interval_s, (ends - liftoff) / frame_interval_s
+    impacts, flights = analysis.impacts, analysis.flights
+    touchdown = impacts["t_touchdown_s"].to_numpy()
+    liftoff = impacts["t_liftoff_s"].to_numpy()
+    numbers = impacts["impact"].to_numpy(int)
+    flight_rows = {int(number): row for row, number in enumerate(flights["flight"])}
+    apex = flights["t_apex_s"].to_numpy()
+    start, end = flights["t_start_s"].to_numpy(), flights["t_end_s"].to_numpy()
+    bounce = bool(analysis.summary.get("first_flight_is_a_bounce"))
+    before, after = np.full(numbers.size, np.nan), np.full(numbers.size, np.nan)
+    for i, number in enumerate(numbers):
+        previous, following = (np.flatnonzero(numbers == number + step) for step in (-1, 1))
+        if number - 1 in flight_rows:  # (NaN: a flight not fitted, seen in too few frames, join_later_sequence)
+            row = flight_rows[number - 1]
+            if previous.size and np.isfinite(liftoff[previous[0]]):  # a bounce: from the lift-off of the impact before
+                began = liftoff[previous[0]]
+            else:  # the first flight of a sequence: the drop from its apex (a bounce rising into it: from its start)
+                began = min(apex[row], start[row]) if (bounce or i > 0) else apex[row]
+            before[i] = (touchdown[i] if np.isfinite(touchdown[i]) else end[row]) - began
+        if number in flight_rows:
+            row = flight_rows[number]
+            lift = liftoff[i] if np.isfinite(liftoff[i]) else start[row]
+            ended = touchdown[following[0]] if following.size and np.isfinite(touchdown[following[0]]) else \
+                lift + 2.0 * (apex[row] - lift)  # the last: twice its rise to the apex
+            after[i] = ended - lift
+    return before / frame_interval_s, after / frame_interval_s
+
+
+#: Relative tolerance on the duration of a hidden flight, between those of the flights on either side of it: with
+#: e ≤ 0.9 two hidden flights (1.9 times the first) outlast the one before (at most 1.11 times) by far more.
+HIDDEN_FLIGHT_TOLERANCE = 0.1
+#: How the analysis says its sequence ends before a flight with too few samples (``flight`` is its number).
+_SPARSE_FLIGHT_CUT = re.compile(r"flight (?P<flight>\d+) has fewer than \d+ samples(?: once its outliers of the flight "
+                                r"fit are left out)?: the bounce sequence ends before it")
+
+
+def sparse_flight_cut(analysis):
+    """The number of the flight, too sparsely sampled to fit, before which the analysed sequence ends (from its
+    notes), or None."""
+    for note in analysis.summary.get("notes") or []:
+        match = _SPARSE_FLIGHT_CUT.fullmatch(note)
+        if match:
+            return int(match["flight"])
+    return None
+
+
+def join_later_sequence(analysis, later, hidden_flight, seen_s):
+    """An analysis whose sequence ended before flight ``hidden_flight`` (seen in too few frames: a hand or a
+    passer-by before the ball; ``seen_s``: the times, s, of the samples after the first sequence) joined with
+    ``later``, the analysis of the samples
+    after the first sequence, whose first fitted flight follows the hidden one: the impacts on either side of the hidden flight are not measured, the ones
+    after it are (renumbered from the release), as if the flight had been filmed too poorly (see
+    :func:`select_resolved_impacts`). The covariances are joined block-diagonally (the two sequences share no
+    fitted parameter); the summary stays the first sequence's, with a note.
+
+    Returns
+    -------
+    dropfit.analysis.BounceAnalysis or None
+        None when the time between the two sequences does not hold one flight (as long as the flight after it, at
+        most as long as the one before): the numbering of the later impacts would be a guess.
+    """
+    # the gap between the sequences must hold one flight: as long as the one after it at least, and at most as
+    # long as the one before it (a ball's flights shorten), within HIDDEN_FLIGHT_TOLERANCE
+    last, first = analysis.flights.iloc[-1], later.flights.iloc[0]
+    before_s = 2.0 * (last["t_end_s"] - last["t_apex_s"])
+    after_s = 2.0 * (later.impacts["t_touchdown_s"].iloc[0] - first["t_apex_s"])
+    gap_s = first["t_apex_s"] - 0.5 * after_s - last["t_end_s"]
+    if not (1.0 - HIDDEN_FLIGHT_TOLERANCE) * after_s <= gap_s <= (1.0 + HIDDEN_FLIGHT_TOLERANCE) * before_s:
+        return None
+    shift = hidden_flight + 1 - int(first["flight"])  # later's first fitted flight follows the hidden one
+    # the frames that saw the hidden flight: in the middle 80 % of it, clear of both contacts
+    seen_s = np.asarray(seen_s, dtype=float)
+    hidden_samples = int(np.count_nonzero((seen_s > last["t_end_s"] + 0.1 * gap_s)
+                                          & (seen_s < last["t_end_s"] + 0.9 * gap_s)))
+    first_later = int(later.impacts["impact"].iloc[0])
+    impacts = later.impacts.copy()
+    impacts["impact"] = impacts["impact"] + shift
+    flights = later.flights.copy()
+    flights["flight"] = flights["flight"] + shift
+    # the two impacts beside the hidden flight: rows with no measurement, the reason in their note
+    hidden = pd.DataFrame({"impact": [hidden_flight, hidden_flight + 1], "in_fit": False, "contact_resolvable": False,
+                           "n_samples_before": [float(analysis.flights["n_samples"].iloc[-1]), hidden_samples],
+                           "n_samples_after": [hidden_samples, float(later.flights["n_samples"].iloc[0])],
+                           "note": ""})  # the reason: select_resolved_impacts
+    joined_impacts = pd.concat([analysis.impacts, hidden, impacts], ignore_index=True)
+    joined_flights = pd.concat([analysis.flights, flights], ignore_index=True)
+    n1, n2 = len(analysis.impacts) + 2, len(impacts)
+    n0, n = n1 - 2, n1 + n2
+    e_covariance = np.zeros((n, n))
+    e_covariance[:n0, :n0], e_covariance[n1:, n1:] = analysis.e_covariance, later.e_covariance
+    contact = np.zeros((2 * n, 2 * n))
+    rows = np.r_[0:n0, n: n + n0], np.r_[n1:n, n + n1: 2 * n]
+    contact[np.ix_(rows[0], rows[0])] = analysis.e_contact_covariance
+    contact[np.ix_(rows[1], rows[1])] = later.e_contact_covariance
+    note = (f"flight {hidden_flight} is seen in {hidden_samples} frames, too few to fit (hidden or lost): impacts "
+            f"{hidden_flight} and {hidden_flight + 1} beside it are not measured; impacts {first_later + shift}-"
+            f"{int(impacts['impact'].iloc[-1])} after it are measured from the flights that follow")
+    notes = [item for item in analysis.summary.get("notes") or [] if not _SPARSE_FLIGHT_CUT.fullmatch(item)]
+    summary = dict(analysis.summary, n_impacts=n1 + n2, notes=notes + [note],
+                   later_sequence={"first_impact": first_later + shift, "hidden_flight": hidden_flight,
+                                   "contact_height_m": later.summary.get("contact_height_m"),
+                                   "notes": list(later.summary.get("notes") or [])})
+    return dataclasses.replace(analysis, impacts=joined_impacts, flights=joined_flights, e_covariance=e_covariance,
+                               e_contact_covariance=contact,
+                               e_drag_covariance=np.concatenate([analysis.e_drag_covariance, np.zeros(2),
+                                                                 later.e_drag_covariance]),
+                               summary=summary)
 
 
 def select_resolved_impacts(analysis, source, frame_interval_s, unclean=None):
-    """Keep the impacts whose two flights are both sampled densely enough, from the first that is to the first
-    after it that is not; the impacts before the first resolved one keep their rows with no e.
+    """Judge each impact by its own two flights: an impact whose flight before or after is too poorly filmed
+    (:func:`flight_violation`: too few frame intervals, too few clean frames, too small a part of its frames clean)
+    keeps its row with no e and the reason; the others keep their e, whatever the flights elsewhere.
 
-    A clip at 30 frames/s often films the drop's fast fall in too few clean frames (a white ball blurred into
-    the wall, a hand in view) and the bounces after it well: their e is measured, and the first impacts say
-    why theirs is not.
+    Impact n needs flights n − 1 and n: a flight too poorly filmed costs the impacts on both its sides (e, the
+    flight-time ratio and the contact time of both; the impact speed of the one after it, the rebound speed of
+    the one before it), and only those: an early impact is never lost because of a later flight, nor
+    the impacts after an occluded flight because of it. A clip at 30 frames/s often films the drop's fast fall in
+    too few clean frames (a white ball blurred into the wall, a hand in view) and the bounces after it well; a
+    football at 20 frames/s has long early flights and a short fourth one.
 
     Parameters
     ----------
@@ -345,53 +490,76 @@ def select_resolved_impacts(analysis, source, frame_interval_s, unclean=None):
     frame_interval_s : float
         Time between frames in s.
     unclean : str, optional
-        What the frames not measured cleanly were (:func:`unclean_frames`), told when no impact is resolved
+        What the frames not measured cleanly were (:func:`unclean_frames`), told when no impact is measured
         for want of clean frames.
 
     Returns
     -------
     dropfit.analysis.BounceAnalysis
-        The same analysis with the impacts (and their flights, covariances and ``n_impacts``) from
-        the first unresolved impact after a resolved one on removed; the unresolved impacts before the
-        first resolved one have no e, impact speed, flight-time ratio or contact time (NaN, out of
-        every fit, the reason in their note). ``summary["impacts_dropped"]`` gives the reasons (empty
-        when all impacts are kept).
+        The same analysis, every impact and flight kept; an impact not measured has NaN in the columns its
+        unusable flights decide (:data:`UNRESOLVED_IMPACT_COLUMNS`, :data:`UNRESOLVED_AFTER_COLUMNS`, with their
+        se and interval), ``in_fit`` false, its e's rows and columns of the covariances zero, and the reason in
+        its ``note`` (the impacts table's reason for leaving an impact out, shared with e > 1).
+        ``summary["impacts_unmeasured"]`` counts them.
 
     Raises
     ------
     InputError
-        When no impact is resolved: nothing is left to report.
+        When no impact is measured: nothing is left to report; the message gives each impact's reason, and the
+        analysis's notes on the flights it could not fit (before its first flight, after the sequence's end).
     """
     spans = flight_spans(analysis, frame_interval_s)
-    reasons = [flight_violation(row, before, after, frame_interval_s)
-               for (_, row), before, after in zip(analysis.impacts.iterrows(), *spans)]
-    first = next((i for i, reason in enumerate(reasons) if reason is None), None)
-    if first is None:
-        why = f"; the frames not clean: {unclean}; {TRACKER_HELP}" if unclean and "clean frames" in reasons[0] else ""
-        raise InputError(f"{shown_path(source)}: not analysable: {reasons[0]}{why}")
-    kept = next((i for i in range(first, len(reasons)) if reasons[i] is not None), len(reasons))
-    n = len(reasons)
-    pair = np.r_[0:kept, n: n + kept]  # e_1…e_kept and their contact times
-    impacts = analysis.impacts.iloc[:kept].reset_index(drop=True)
-    e_covariance = analysis.e_covariance[:kept, :kept].copy()
-    e_contact_covariance = analysis.e_contact_covariance[np.ix_(pair, pair)].copy()
-    e_drag_covariance = analysis.e_drag_covariance[:kept].copy()
-    if first:
-        unresolved = np.arange(first)
-        for name in UNRESOLVED_IMPACT_COLUMNS:
+    problems = [_impact_problems(row, before, after, frame_interval_s)
+                for (_, row), before, after in zip(analysis.impacts.iterrows(), *spans)]
+    numbers = analysis.impacts["impact"].astype(int).tolist()
+    if problems and all(problems):
+        said = "; ".join(f"impact {number}: " + " and ".join(diagnosis for diagnosis, _ in found.values())
+                         for number, found in zip(numbers, problems))
+        # each kind of advice once, as the first impact needs it (the least a change must do to measure one)
+        kinds = {}
+        for found in problems:
+            for diagnosis, advice_ in found.values():
+                kinds.setdefault(advice_.split(" ", 3)[-1] if advice_.startswith("film at") else advice_, advice_)
+        advice = list(kinds.values())
+        tracking = TRACKER_HELP in advice or any(
+            diagnosis.startswith("clean frames") for found in problems for diagnosis, _ in found.values())
+        advice = [item for item in advice if item != TRACKER_HELP]
+        why = f"; the frames not clean: {unclean}" if unclean and tracking else ""
+        help_ = f"; {TRACKER_HELP}" if tracking else ""
+        # the impacts the analysis found no flights for: before the first fitted flight, after the sequence's end
+        cuts = [note for note in analysis.summary.get("notes") or []
+                if "the fit starts with flight" in note or "sequence ends before" in note]
+        said += "".join(f"; {note}" for note in cuts)
+        raise InputError(f"{shown_path(source)}: not analysable: no impact can be measured: {said}"
+                         f"{'; ' + '; '.join(advice) if advice else ''}{why}{help_}")
+    impacts = analysis.impacts.copy()
+    e_covariance = analysis.e_covariance.copy()
+    e_contact_covariance = analysis.e_contact_covariance.copy()
+    e_drag_covariance = analysis.e_drag_covariance.copy()
+    n = len(impacts)
+    notes = impacts["note"].astype(object).where(impacts["note"].notna(), "").tolist() if "note" in impacts \
+        else [""] * n
+    for i, found in enumerate(problems):
+        if not found:
+            continue
+        names = dict.fromkeys((UNRESOLVED_IMPACT_COLUMNS if "before" in found else ())
+                              + (UNRESOLVED_AFTER_COLUMNS if "after" in found else ()))
+        for name in names:
             for column in (name, se_column_name(name), se_column_name(name, "ci95_low"),
                            se_column_name(name, "ci95_high")):
-                impacts.loc[unresolved, column] = np.nan
-        impacts.loc[unresolved, "contact_resolvable"] = False
-        impacts.loc[unresolved, "in_fit"] = False
-        impacts.loc[unresolved, "note"] = [reasons[i].split(": ", 1)[1] + ": its e is not given" for i in range(first)]
-        for matrix, rows in ((e_covariance, unresolved), (e_contact_covariance, np.r_[unresolved, kept + unresolved])):
+                if column in impacts:
+                    impacts.loc[i, column] = np.nan
+        impacts.loc[i, "contact_resolvable"] = False
+        impacts.loc[i, "in_fit"] = False
+        reason = "; ".join(f"{diagnosis} ({advice})" if advice != TRACKER_HELP else diagnosis
+                           for diagnosis, advice in found.values()) + ": its e is not given"
+        notes[i] = "; ".join(filter(None, (reason, notes[i] if notes[i] and "e > 1" not in notes[i] else "")))
+        for matrix, rows in ((e_covariance, [i]), (e_contact_covariance, [i, n + i])):
             matrix[rows, :] = 0.0
             matrix[:, rows] = 0.0
-        e_drag_covariance[unresolved] = 0.0
-    dropped = [f"{reasons[kept]}; this and the {n - kept - 1} later impacts dropped"] if kept < n else []
-    summary = dict(analysis.summary, n_impacts=kept, impacts_dropped=dropped)
-    flights = analysis.flights.iloc[: kept + 1].reset_index(drop=True)
-    return dataclasses.replace(analysis, impacts=impacts, flights=flights, e_covariance=e_covariance,
+        e_drag_covariance[i] = 0.0
+    impacts["note"] = notes
+    summary = dict(analysis.summary, impacts_unmeasured=int(sum(bool(found) for found in problems)))
+    return dataclasses.replace(analysis, impacts=impacts, e_covariance=e_covariance,
                                e_contact_covariance=e_contact_covariance, e_drag_covariance=e_drag_covariance,
                                summary=summary)

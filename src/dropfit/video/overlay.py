@@ -330,13 +330,25 @@ def _nearest_row(times, time_s):
     return int(np.nanargmin(np.abs(times - time_s)))
 
 
+def _tracked_bounces(rows_px, radius_px):
+    """Positions in ``rows_px`` (the clean frames' centre rows, px, pointing down) of the ball's lowest points
+    between rises of at least its radius (``radius_px``, px; 3 px when unknown): the bounces a refused clip shows,
+    the deepest first."""
+    from scipy.signal import find_peaks
+
+    prominence = radius_px if np.isfinite(radius_px) and radius_px > 0 else 3.0
+    peaks, properties = find_peaks(np.asarray(rows_px, dtype=float), prominence=prominence)
+    return peaks[np.argsort(-properties["prominences"])].tolist()
+
+
 def sheet_frames(scene, tiles=SHEET_TILES):
     """The frames (rows of ``scene.table``) a contact sheet shows, in order.
 
     First come the frames that tell the story: the first frame, the release (the first frame measured
     cleanly), the last frame, then per impact the apex of the flight before it and the frames just
-    before touchdown and just after lift-off (without a fit: the ball's lowest and highest tracked
-    points); the rest are spread evenly over the clip.
+    before touchdown and just after lift-off (without a fit, a refused clip: the ball's lowest and highest
+    tracked points, then the lowest point of each bounce the tracked rows show); the rest are spread evenly
+    over the clip.
 
     Parameters
     ----------
@@ -359,9 +371,10 @@ def sheet_frames(scene, tiles=SHEET_TILES):
             if number < len(impacts):  # the last frame before touchdown, the first after lift-off
                 story += [max(int(np.searchsorted(times, impacts[number].t_touchdown_s)) - 1, 0),
                           min(int(np.searchsorted(times, impacts[number].t_liftoff_s)), count - 1)]
-    elif usable.size:
+    elif usable.size:  # a refused clip: the bounces the tracked rows show, lowest points first
         rows = table["y_px"].to_numpy(float)[usable]
         story += [int(usable[np.argmax(rows)]), int(usable[np.argmin(rows)])]  # rows point down: the lowest point
+        story += [int(usable[i]) for i in _tracked_bounces(rows, float(np.nanmedian(table["radius_px"])))]
     chosen = list(dict.fromkeys(story))[:tiles]
     for index in np.round(np.linspace(0, count - 1, tiles)).astype(int):
         if len(chosen) >= min(tiles, count):
