@@ -322,3 +322,38 @@ def test_a_px_table_with_an_uncertain_gravity_scale_gives_e_and_says_how_uncerta
     assert drop.stderr >= scale["rel_se"] * drop.value
     assert impacts["h_after_scale_se_m"].iloc[0] == pytest.approx(scale["rel_se"] * impacts["h_after_m"].iloc[0],
                                                                   rel=1e-6)
+
+
+def _metre_log(path, time_s, height, column="y_m"):
+    import pandas as pd
+
+    pd.DataFrame({"time_s": time_s, column: height}).to_csv(path, index=False)
+    return path
+
+
+def test_a_log_in_cm_under_a_metre_header_still_says_check_the_units(tmp_path):
+    """'Falls with X m/s², not g' keeps its meaning for a slip of units, and says which slip the numbers point to."""
+    import dropfit
+
+    time, rows = bounce_sequence_rows(drop_m=0.5, e=0.8, fps=120.0, px_per_m=1000.0, noise_px=0.3, release_s=0.2,
+                                      impacts=4)
+    path = _metre_log(tmp_path / "cm_as_m.csv", time, (600.0 - rows) / 10.0)  # cm, declared m
+    with pytest.raises(InputError, match="not g") as refusal:
+        dropfit.analyse_recording(path)
+    assert "check the units" in str(refusal.value) and "cm under a metre header" in str(refusal.value)
+    assert "slow-motion" not in str(refusal.value)
+
+
+def test_a_log_whose_time_base_is_slow_motion_names_it_and_the_capture_rate(tmp_path):
+    """A table tracked on a 240 fps clip stored at 30 fps, with the file's times: its flights fall 64 times slower
+    than g; the refusal says slow motion at about 240 fps (before, only 'check the units')."""
+    import dropfit
+
+    time, rows = bounce_sequence_rows(drop_m=0.5, e=0.8, fps=240.0, px_per_m=1000.0, noise_px=0.3, release_s=0.2,
+                                      impacts=4)
+    path = _metre_log(tmp_path / "slow.csv", time * 8.0, (600.0 - rows) / 1000.0)
+    with pytest.raises(InputError, match="not g") as refusal:
+        dropfit.analyse_recording(path)
+    message = str(refusal.value)
+    assert "slow-motion" in message and 55 < float(message.split("falls ")[-1].split(" times slower")[0]) < 75
+    assert "about 240 fps (30 fps in the file)" in message

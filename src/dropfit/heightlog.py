@@ -457,6 +457,37 @@ def scale_from_gravity(time_s, height_px, gravity_m_s2=STANDARD_GRAVITY_M_S2, so
     return sign * scale, scale * relative_se, details
 
 
+#: Apparent acceleration over g (dimensionless) → the slip of units that makes it, for a log in m and s.
+UNIT_SLIPS = {100.0: "heights in cm under a metre header", 1000.0: "heights in mm under a metre header",
+              10.0: "heights in mm under a cm header", 0.01: "heights in m under a cm header",
+              0.001: "heights in m under a mm header", 0.1: "heights in cm under a mm header",
+              1e-6: "times in ms under a seconds header", 1e6: "times in s under a ms header"}
+#: A ratio within this factor of a slip's points to it (the flights found in slipped units are cut where g
+#: would cut them: a cm log read as m fell with 69 g, not 100 g).
+UNIT_SLIP_FACTOR = 2.0
+#: Height spans (m) a drop test's ball covers: a length slip is named only if it brings the log's span into them.
+PLAUSIBLE_SPAN_M = (0.005, 10.0)
+
+
+def acceleration_reading(acceleration_ratio, sample_rate_hz, span_m=np.nan):
+    """What a log's flights falling with ``acceleration_ratio`` × g point to, in words: a slip of units
+    (:data:`UNIT_SLIPS`; a length slip only where it brings the heights' span ``span_m``, m as read, into
+    :data:`PLAUSIBLE_SPAN_M`), a slow-motion time base (a table tracked on a slow-motion video at its playback
+    rate: :func:`dropfit.video.calibrate.slow_motion_reading` at ``sample_rate_hz``, samples/s), or None."""
+    from .video.calibrate import slow_motion_reading
+
+    if not (np.isfinite(acceleration_ratio) and acceleration_ratio > 0):
+        return None
+    readings = [words for ratio, words in UNIT_SLIPS.items()
+                if abs(math.log(acceleration_ratio / ratio)) < math.log(UNIT_SLIP_FACTOR)
+                and (words.startswith("times") or not np.isfinite(span_m)
+                     or PLAUSIBLE_SPAN_M[0] <= span_m / ratio <= PLAUSIBLE_SPAN_M[1])]
+    slow = slow_motion_reading(acceleration_ratio, sample_rate_hz,
+                               advice="if tracked on a slow-motion video, give that rate to the tracking tool")
+    readings += [f"its flights {slow}"] if slow else []
+    return "the numbers point to " + ", or ".join(readings) if readings else None
+
+
 def heights_basis(attrs):
     """What a px recording's heights rest on, in words: "heights from g: scale known to 2.7 %" (a scale from the
     flights' curvature), "heights from the diameter: scale known to 2 %" (another source), "heights from the
