@@ -357,3 +357,22 @@ def test_a_log_whose_time_base_is_slow_motion_names_it_and_the_capture_rate(tmp_
     message = str(refusal.value)
     assert "slow-motion" in message and 55 < float(message.split("falls ")[-1].split(" times slower")[0]) < 75
     assert "about 240 fps (30 fps in the file)" in message
+
+
+@pytest.mark.parametrize("seed", [2, 6, 8])
+def test_the_flights_of_a_noisy_px_table_fall_with_g_within_their_own_errors(tmp_path, seed):
+    """1.5 px of noise at 50 px/m and 24 frames/s: each flight's own curvature is uncertain by about 10 %, so their
+    median can miss g by more than the 15 % a drag allows, though the scale came from these same flights. Such
+    tables (10 of 40 seeds) were refused, "the flights fall with 8.3 m/s², not g"; the tolerance now widens by
+    three standard errors of that median."""
+    import pandas as pd
+
+    import dropfit
+
+    time, rows = bounce_sequence_rows(**{**PX_TABLE, "noise_px": 1.5}, seed=seed)
+    path = tmp_path / "noisy_px.csv"
+    pd.DataFrame({"t": time, "x_px": 320.0, "y_px": rows}).to_csv(path, index=False)
+    impacts = dropfit.analyse_recording(path).impacts
+    # (e's standard error at this noise and frame rate is about a quarter too small: RMS z 1.3 over 34 impacts of
+    # 12 seeds at 1 px, seed 8 here 3.2; a matter of the estimator, not of the scale)
+    assert abs(impacts["e"].iloc[0] - PX_TABLE["e"]) < 4.0 * impacts["e_se"].iloc[0]
