@@ -196,17 +196,18 @@ def test_g_arbitrates_a_diameter_or_ruler_that_disagrees_with_it():
     chosen, disagreement, suspects = choose_scale({"diameter": (0.000487, 0.000487 * 0.02), "gravity": gravity})
     assert chosen == "gravity" and disagreement["diameter"] == pytest.approx(0.19, abs=0.005)
     assert "halo" in suspects["diameter"] and "blur" in suspects["diameter"]
-    chosen, _, suspects = choose_scale({"ruler": (0.00115, 1e-6), "gravity": (0.001, 2e-6), "diameter": (0.00101, 2e-5)})
+    chosen, _, suspects = choose_scale({"ruler": (0.00115, 1e-6), "gravity": (0.001, 2e-6),
+                                        "diameter": (0.00101, 2e-5)})
     assert chosen == "gravity" and set(suspects) == {"ruler"} and "plane" in suspects["ruler"]
     assert choose_scale({"given": (0.00115, 0.0), "gravity": (0.001, 2e-6)})[0] == "given"
 
 
-def test_an_imprecise_gravity_scale_gives_way_to_an_agreeing_diameter():
-    """Gravity known to 4 % and a diameter known to 2 % that agrees with it: the diameter is used (gravity is
-    still the arbiter); a gravity scale known to 0.5 % is used before the diameter."""
-    assert choose_scale({"diameter": (0.00102, 2e-5), "gravity": (0.001, 4e-5)})[:2] == \
-        ("diameter", pytest.approx({"gravity": 0.001 / 0.00102 - 1}))
-    assert choose_scale({"diameter": (0.00102, 2e-5), "gravity": (0.001, 5e-6)})[0] == "gravity"
+def test_an_imprecise_gravity_scale_comes_before_an_agreeing_diameter():
+    """Gravity known to 5 % and a diameter known to 2 %, 8 % apart (within 3 standard errors): gravity's scale is
+    used (e takes no bias from it) and the diameter is reported, not suspect. Before, gravity's scale was refused
+    above 1 %."""
+    chosen, disagreement, suspects = choose_scale({"diameter": (0.00108, 2.16e-5), "gravity": (0.001, 5e-5)})
+    assert chosen == "gravity" and suspects == {} and disagreement["diameter"] == pytest.approx(0.08)
 
 
 @pytest.mark.parametrize("capture_fps, file_fps", [(1000.0, 30.0), (240.0, 30.0), (960.0, 30.0)])

@@ -213,6 +213,10 @@ def test_a_wrong_ball_radius_is_named_suspect_and_gravity_scales_the_clip(tmp_pa
     drop = result.params["drop_height"]
     assert abs(drop.value - truth["physics"]["drop_height_m"]) < 3 * drop.stderr
     assert result.fit["restitution"]["n_impacts"] >= 2
+    # without the radius the same clip was refused: "no scale: ... the flights give the scale only to 1.8 %"
+    unsized = dropfit.analyse_recording(path, ball_type="tennis")
+    assert unsized.fit["scale"]["heights"].startswith("heights from g: scale known to")
+    assert unsized.params["e"].value == pytest.approx(result.params["e"].value, abs=0.01)
 
 
 def _slow_motion_clip(path, capture_fps, file_fps, duration_s=1.0, seed=0):

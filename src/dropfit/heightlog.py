@@ -30,8 +30,8 @@ TIME_UNITS_S = {"s": 1.0, "ms": 1e-3}
 LENGTH_UNITS_M = {"m": 1.0, "cm": 1e-2, "mm": 1e-3}
 QUALITY_OK, QUALITY_DROPOUT = 0, 1
 #: A scale from gravity less precise than this (relative standard error) is still used (e, flight-time and
-#: height ratios need no scale at all), but its heights are said to be only as good as it: the headline names
-#: it (:func:`scale_words`), and in a video a more precise independent scale that agrees with it is used instead.
+#: height ratios need no scale at all), but its heights are said to be only as good as it: a note says so, and
+#: the headline names what the heights rest on (:func:`heights_basis`).
 MAX_GRAVITY_SCALE_RELATIVE_SE = 0.01
 #: A header with more columns than this is refused before parsing (a height log has two; a
 #: million-column line took minutes to parse).

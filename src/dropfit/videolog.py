@@ -580,7 +580,8 @@ def _record_scales(scales, extra):
     for name, cause in suspects.items():  # the flights fall with g through gravity's scale, not through these
         if name == "ruler":  # what its marks' spacing is by gravity's scale
             spacing_m = extra["ruler_tick_m"] * scales["gravity"][0] / scales["ruler"][0]
-            cause += f"; by gravity's scale the marks found are {spacing_m:.2g} m apart, not {extra['ruler_tick_m']:g} m"
+            cause += (f"; by gravity's scale the marks found are {spacing_m:.2g} m apart, not "
+                      f"{extra['ruler_tick_m']:g} m")
         extra[f"scale_suspect_{name}"] = cause
     extra.update(scale_source=chosen, scale_m_per_px=scale, scale_rel_se=scale_se / scale)
     return chosen, scale

@@ -531,9 +531,6 @@ SCALE_AGREEMENT_SIGMAS = 3.0
 #: ... or within this relative difference, whichever is larger: what each one's model leaves out (a ruler a little
 #: nearer the camera than the ball, a camera's tilt bending the flights) is of this order.
 SCALE_AGREEMENT_FLOOR = 0.03
-#: A scale from gravity more uncertain than this (relative) gives way to the ball's diameter where the two agree
-#: and the diameter is the more precise (:data:`dropfit.heightlog.MAX_GRAVITY_SCALE_RELATIVE_SE`).
-IMPRECISE_GRAVITY_SCALE = 0.01
 #: What makes each arbitrated scale disagree with gravity, as the report names it.
 SUSPECT_CAUSES = {
     "diameter": "the ball's tracked outline is not its size (a halo, motion blur, shading or its shadow), or its "
@@ -558,8 +555,10 @@ def choose_scale(scales):
     The first in :data:`SCALE_PRECEDENCE` is used, except that g arbitrates the scales measured in the
     image (:data:`ARBITRATED_SCALES`): one that disagrees with gravity's (:func:`scales_agree`) is suspect
     and not used; g is known to 0.3 % anywhere, a ball's apparent diameter or a ruler's distance from the
-    ball's plane is not. A gravity scale less precise than :data:`IMPRECISE_GRAVITY_SCALE` gives way to an
-    agreeing diameter that is more precise.
+    ball's plane is not. Gravity's scale comes before the diameter's however uncertain it is: it makes the
+    flights fall with g by construction, so e, fitted with g held, takes no bias from it (a diameter 16 % off,
+    within three of its and an imprecise gravity's standard errors, bends every flight by 16 %), and its
+    uncertainty goes into the heights alone.
 
     Parameters
     ----------
@@ -576,13 +575,7 @@ def choose_scale(scales):
     suspects = {} if gravity is None else {
         name: SUSPECT_CAUSES[name] for name in ARBITRATED_SCALES
         if name in scales and not scales_agree(scales[name], gravity)}
-    order = list(SCALE_PRECEDENCE)
-    if gravity is not None and "diameter" in scales and "diameter" not in suspects:
-        relative = {name: scales[name][1] / scales[name][0] for name in ("gravity", "diameter")}
-        if relative["gravity"] > max(IMPRECISE_GRAVITY_SCALE, relative["diameter"]):
-            order.remove("gravity")
-            order.append("gravity")
-    chosen = next(name for name in order if name in scales and name not in suspects)
+    chosen = next(name for name in SCALE_PRECEDENCE if name in scales and name not in suspects)
     reference = scales[chosen][0]
     return (chosen, {name: value / reference - 1.0 for name, (value, _) in scales.items() if name != chosen},
             suspects)
