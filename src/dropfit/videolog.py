@@ -241,6 +241,10 @@ def trajectory_from_video(path, ball_radius_m=None, scale_m_per_px=None, capture
     seen_rows = _seen_rows(table, plane, extra)
     # a scale the diameter contradicts by a factor cannot set the time base: g arbitrates them in the file's time
     time = _capture_time(table, rows, seen_rows, {} if conflict else scales, capture_fps, gravity_m_s2, extra)
+    if conflict and extra["capture_fps_source"] == "container":
+        extra["capture_rate_note"] = (f"the file's rate is taken as the capture rate: the {conflict[0]} scale and the "
+                                      f"ball's diameter differ by a factor {max(conflict[1], 1 / conflict[1]):.3g}, "
+                                      f"so neither can check it")
     extra.update(codec=table.attrs.get("codec") or "unknown",
                  speed_error_px=speed_dependent_centre_error_px(table.attrs.get("codec"), rows, time,
                                                                 table["blur_px"].to_numpy()))
