@@ -8,7 +8,9 @@ gravity (the flights' shared acceleration in px/s², quadratic drag included, ov
 known diameter (its tracked radius in px against its radius in m). The one used is the first
 available in the precedence given > points > target > ruler > gravity > diameter (what the user
 states first, then by accuracy: see :mod:`dropfit.video.calibrate`); every other one is stored with
-its disagreement relative to it.
+its disagreement relative to it. g arbitrates the scales measured in the image: a target, ruler or
+diameter that disagrees with gravity's scale is suspect (``scale_suspect_<source>``: its likely cause),
+and gravity's is used, however uncertain (its error goes into the heights, not into e).
 
 A target in the ball's plane also gives the map from the image to that plane: the tracked centres
 are mapped through it, so a camera that is not square to the plane of the drop is corrected. The
@@ -24,7 +26,9 @@ given scale) goes with the trajectory, and the analysis adds its effect on every
 
 Time: a slow-motion file's container rate may be a playback rate. With a scale that does not
 come from gravity, the flights' acceleration in the file's time gives the capture rate, snapped to a
-common camera rate; ``capture_fps`` overrides it.
+common camera rate (the flights searched again at the common rates' slowdowns where the file's time
+hides them); ``capture_fps`` overrides it. Without such a scale, a clip whose gravity scale makes the
+ball larger than any ball is refused as slow motion, with the capture rate it would have.
 """
 
 from __future__ import annotations

@@ -17,7 +17,9 @@ its model leaves out (without a ruler or target to rectify the rows, a camera ti
 speed-dependent curvature, +0.2 % at 0.5°); the tracked diameter depends on the
 edge threshold, the ball's shading, blur and compression (1–3 % on phonesim's colour clips:
 :data:`dropfit.videolog.DIAMETER_SCALE_RELATIVE_SE`). Every other available scale is reported with
-its disagreement relative to the chosen one, s_other / s_chosen − 1.
+its disagreement relative to the chosen one, s_other / s_chosen − 1. g arbitrates (:func:`choose_scale`):
+a target, ruler or diameter that disagrees with gravity's scale beyond their errors is suspect and named
+with its likely cause (:data:`SUSPECT_CAUSES`), and the next scale is used.
 
 Ruler
 -----
