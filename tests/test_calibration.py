@@ -12,7 +12,7 @@ from helpers import real_data_dir, ruler_image
 from dropfit.analysis import analyse_bounces
 from dropfit.video.calibrate import (CAPTURE_RATE_SNAP_TOLERANCE, COMMON_CAPTURE_RATES_FPS, SCALE_PRECEDENCE,
                                      choose_scale, infer_capture_rate, keystoned_rows, mark_numbers, rectify_rows,
-                                     ruler_scale)
+                                     ruler_scale, slow_motion_reading)
 from dropfit.physics import STANDARD_GRAVITY_M_S2
 from dropfit.synth import simulate_drop
 from dropfit.video_synth import Camera, FrameRenderer, Scene, default_clips, render_background
@@ -179,12 +179,45 @@ def test_no_ruler_is_said_not_raised():
 
 def test_choose_scale_follows_the_precedence_and_reports_each_disagreement():
     scales = {"diameter": (0.00101, 1e-6), "gravity": (0.00099, 1e-7), "ruler": (0.00100, 2e-7)}
-    chosen, disagreement = choose_scale(scales)
-    assert chosen == "ruler"
+    chosen, disagreement, suspects = choose_scale(scales)
+    assert chosen == "ruler" and suspects == {}
     assert disagreement == pytest.approx({"diameter": 0.01, "gravity": -0.01})
     assert choose_scale({**scales, "given": (0.002, 0.0)})[0] == "given"
     assert choose_scale({"diameter": scales["diameter"], "gravity": scales["gravity"]})[0] == "gravity"
     assert SCALE_PRECEDENCE == ("given", "points", "target", "ruler", "gravity", "diameter")
+
+
+def test_g_arbitrates_a_diameter_or_ruler_that_disagrees_with_it():
+    """A diameter 19 % off gravity's scale (known to 4.4 %, as on white_pingpong_ruler.mov, where the tracked ball
+    fell with 11.8 m/s² through its diameter) is suspect and not used; so is a ruler 15 % off a precise gravity
+    scale, with the cause named; a given scale is used as stated. Before, the diameter was used and the clip
+    refused."""
+    gravity = (0.000409, 0.000409 * 0.044)
+    chosen, disagreement, suspects = choose_scale({"diameter": (0.000487, 0.000487 * 0.02), "gravity": gravity})
+    assert chosen == "gravity" and disagreement["diameter"] == pytest.approx(0.19, abs=0.005)
+    assert "halo" in suspects["diameter"] and "blur" in suspects["diameter"]
+    chosen, _, suspects = choose_scale({"ruler": (0.00115, 1e-6), "gravity": (0.001, 2e-6),
+                                        "diameter": (0.00101, 2e-5)})
+    assert chosen == "gravity" and set(suspects) == {"ruler"} and "plane" in suspects["ruler"]
+    assert choose_scale({"given": (0.00115, 0.0), "gravity": (0.001, 2e-6)})[0] == "given"
+
+
+def test_an_imprecise_gravity_scale_comes_before_an_agreeing_diameter():
+    """Gravity known to 5 % and a diameter known to 2 %, 8 % apart (within 3 standard errors): gravity's scale is
+    used (e takes no bias from it) and the diameter is reported, not suspect. Before, gravity's scale was refused
+    above 1 %."""
+    chosen, disagreement, suspects = choose_scale({"diameter": (0.00108, 2.16e-5), "gravity": (0.001, 5e-5)})
+    assert chosen == "gravity" and suspects == {} and disagreement["diameter"] == pytest.approx(0.08)
+
+
+@pytest.mark.parametrize("capture_fps, file_fps", [(1000.0, 30.0), (240.0, 30.0), (960.0, 30.0)])
+def test_slow_motion_reading_names_the_capture_rate(capture_fps, file_fps):
+    """Flights that fall (file/capture)² times g in the file's time point to slow motion at the capture rate."""
+    reading = slow_motion_reading((file_fps / capture_fps) ** 2 * 1.01, file_fps)
+    assert "slow-motion" in reading and f"about {capture_fps:g} fps" in reading
+    assert f"--capture-fps {capture_fps:g}" in reading
+    assert f"falls {(capture_fps / file_fps) ** 2 / 1.01:.0f} times slower than g" in reading
+    assert slow_motion_reading(0.85, file_fps) is None and slow_motion_reading(100.0, file_fps) is None
 
 
 @pytest.mark.parametrize("capture_fps, file_fps", [(240.0, 30.0), (960.0, 30.0), (1000.0, 25.0)])

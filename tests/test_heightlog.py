@@ -262,3 +262,117 @@ def test_a_flight_that_holds_a_missed_bounce_is_not_taken_for_a_free_flight():
     # judged against the segmentation's own estimate, which such a piece pulls low (2068 px/s² in seed 8): against
     # the true curvature the piece was cut before the median scatter was used too
     assert free_flights(pieces, 0.5 * acceleration) == 4
+
+
+# --- a px table whose gravity scale is uncertain ------------------------------------------------------
+
+#: The closed-form bounce sequence of the uncertain px table: a ball's centre released at rest from 1 m,
+#: vacuum parabolas, a constant e, touching the floor (y = 0) instantly, filmed at 24 frames/s.
+PX_TABLE = dict(drop_m=1.0, e=0.75, fps=24.0, px_per_m=50.0, noise_px=1.0, release_s=0.3, impacts=4)
+
+
+def bounce_sequence_rows(drop_m, e, fps, px_per_m, noise_px, release_s, impacts, seed=0, floor_row_px=600.0):
+    """Times (s) and image rows (px, down) of a closed-form bounce sequence (independent of dropfit)."""
+    g = 9.80665  # m/s², standard gravity, written out: the analysis's own g is not used here
+    starts, speeds = [release_s], [0.0]
+    touch, v_in = release_s + np.sqrt(2.0 * drop_m / g), np.sqrt(2.0 * g * drop_m)
+    for _ in range(impacts):
+        starts.append(touch)
+        speeds.append(e * v_in)
+        touch, v_in = touch + 2.0 * e * v_in / g, e * v_in
+    time = np.arange(0.0, touch, 1.0 / fps)
+    flight = np.clip(np.searchsorted(starts, time, side="right") - 1, 0, None)
+    tau = np.clip(time - np.asarray(starts)[flight], 0.0, None)
+    height = np.where(flight == 0, drop_m, 0.0) + np.asarray(speeds)[flight] * tau - 0.5 * g * tau**2
+    height = np.where(time < release_s, drop_m, height)
+    rows = floor_row_px - px_per_m * height + np.random.default_rng(seed).normal(0.0, noise_px, time.size)
+    return time, rows
+
+
+def test_a_px_table_with_an_uncertain_gravity_scale_gives_e_and_says_how_uncertain_its_heights_are(tmp_path):
+    """A tennis-ball px table (t, x_px, y_px; 24 frames/s, rows down, 1 px noise at 50 px/m): the flights give the
+    scale only to a few %. It was refused ('cannot calibrate pixels from gravity: the flights give the scale only
+    to 2.7 %'); now e is within its interval and free of the scale's error, the drop height's interval covers the
+    truth and is as wide as the scale's error, and the headline and fit.json say the heights are from g."""
+    import pandas as pd
+
+    import dropfit
+    from dropfit.pipeline import analysis_options
+
+    time, rows = bounce_sequence_rows(**PX_TABLE)
+    path = tmp_path / "tennis_px.csv"
+    pd.DataFrame({"t": time, "x_px": 320.0, "y_px": rows}).to_csv(path, index=False)
+    result = dropfit.analyse_recording(path)
+    scale = result.fit["scale"]
+    assert 0.015 < scale["rel_se"] < 0.1  # refused above 1 % before
+    assert scale["source"] == "gravity" and scale["heights"] == f"heights from g: scale known to " \
+                                                                 f"{100 * scale['rel_se']:.2g} %"
+    assert scale["heights"] in result.summary()
+    impacts = result.impacts
+    assert np.all(np.abs(impacts["e"][:3] - PX_TABLE["e"]) < 3.0 * impacts["e_se"][:3])
+    # e's error holds no share of the scale's (a ratio of speeds, in px/s as well as in m/s) ...
+    trajectory_time = result.trajectory["time"].values
+    options = analysis_options(result.trajectory.attrs, None, float(np.median(np.diff(trajectory_time))))
+    assert options["gravity_scaled"] and options["scale_rel_se"] == scale["rel_se"]
+    unscaled = analyse_bounces(trajectory_time, result.trajectory["y"].values, **{**options, "scale_rel_se": 0.0})
+    np.testing.assert_allclose(impacts["e_se"], unscaled.impacts["e_se"], rtol=1e-6)
+    # ... the heights hold all of it
+    drop = result.params["drop_height"]
+    assert abs(drop.value - PX_TABLE["drop_m"]) < 2.5 * drop.stderr
+    assert drop.stderr >= scale["rel_se"] * drop.value
+    assert impacts["h_after_scale_se_m"].iloc[0] == pytest.approx(scale["rel_se"] * impacts["h_after_m"].iloc[0],
+                                                                  rel=1e-6)
+
+
+def _metre_log(path, time_s, height, column="y_m"):
+    import pandas as pd
+
+    pd.DataFrame({"time_s": time_s, column: height}).to_csv(path, index=False)
+    return path
+
+
+def test_a_log_in_cm_under_a_metre_header_still_says_check_the_units(tmp_path):
+    """'Falls with X m/s², not g' keeps its meaning for a slip of units, and says which slip the numbers point to."""
+    import dropfit
+
+    time, rows = bounce_sequence_rows(drop_m=0.5, e=0.8, fps=120.0, px_per_m=1000.0, noise_px=0.3, release_s=0.2,
+                                      impacts=4)
+    path = _metre_log(tmp_path / "cm_as_m.csv", time, (600.0 - rows) / 10.0)  # cm, declared m
+    with pytest.raises(InputError, match="not g") as refusal:
+        dropfit.analyse_recording(path)
+    assert "check the units" in str(refusal.value) and "cm under a metre header" in str(refusal.value)
+    assert "slow-motion" not in str(refusal.value)
+
+
+def test_a_log_whose_time_base_is_slow_motion_names_it_and_the_capture_rate(tmp_path):
+    """A table tracked on a 240 fps clip stored at 30 fps, with the file's times: its flights fall 64 times slower
+    than g; the refusal says slow motion at about 240 fps (before, only 'check the units')."""
+    import dropfit
+
+    time, rows = bounce_sequence_rows(drop_m=0.5, e=0.8, fps=240.0, px_per_m=1000.0, noise_px=0.3, release_s=0.2,
+                                      impacts=4)
+    path = _metre_log(tmp_path / "slow.csv", time * 8.0, (600.0 - rows) / 1000.0)
+    with pytest.raises(InputError, match="not g") as refusal:
+        dropfit.analyse_recording(path)
+    message = str(refusal.value)
+    assert "slow-motion" in message and 55 < float(message.split("falls ")[-1].split(" times slower")[0]) < 75
+    assert "about 240 fps (30 fps in the file)" in message
+
+
+@pytest.mark.parametrize("seed", [2, 6, 8])
+def test_the_flights_of_a_noisy_px_table_fall_with_g_within_their_own_errors(tmp_path, seed):
+    """1.5 px of noise at 50 px/m and 24 frames/s: each flight's own curvature is uncertain by about 10 %, so their
+    median can miss g by more than the 15 % a drag allows, though the scale came from these same flights. Such
+    tables (10 of 40 seeds) were refused, "the flights fall with 8.3 m/s², not g"; the tolerance now widens by
+    three standard errors of that median."""
+    import pandas as pd
+
+    import dropfit
+
+    time, rows = bounce_sequence_rows(**{**PX_TABLE, "noise_px": 1.5}, seed=seed)
+    path = tmp_path / "noisy_px.csv"
+    pd.DataFrame({"t": time, "x_px": 320.0, "y_px": rows}).to_csv(path, index=False)
+    impacts = dropfit.analyse_recording(path).impacts
+    # (e's standard error at this noise and frame rate is about a quarter too small: RMS z 1.3 over 34 impacts of
+    # 12 seeds at 1 px, seed 8 here 3.2; a matter of the estimator, not of the scale)
+    assert abs(impacts["e"].iloc[0] - PX_TABLE["e"]) < 4.0 * impacts["e_se"].iloc[0]

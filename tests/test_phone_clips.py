@@ -239,22 +239,23 @@ def test_a_floor_edge_does_not_set_the_contact_height_of_a_ball_measured_in_colo
 
 
 @pytest.mark.slow
-def test_a_ruler_read_in_the_wrong_marks_is_refused_by_the_balls_size(tmp_path):
+def test_a_ruler_read_in_the_wrong_marks_is_named_suspect_and_gravity_scales_the_clip(tmp_path):
     """The tape's cm ticks are not resolved at half size; told they are 1 cm apart, the marks found (every
     10 cm) would give a scale 10 times too fine, and a capture rate inferred through it a false slow motion.
-    The ball's diameter contradicts it: refused, naming the spacing the marks really have."""
+    The ball's diameter contradicts it and gravity agrees with the diameter: the ruler is suspect, named with the
+    spacing its marks really have, and gravity's scale is used (it was refused, issue 32)."""
     # filmed at a high bit rate (crf 10): at crf 18 the tape's 10 cm marks are too soft at half size to be
     # found at all, and the clip is measured with gravity's scale
     path, truth = phone_clip("yellow_green_tape", tmp_path, seed=3, downscale=0.5, crf=10)
     physics = truth["physics"]
-    with pytest.raises(InputError) as refused:
-        dropfit.analyse_recording(path, ball_radius_m=physics["radius_m"], ball_mass_kg=physics["mass_kg"],
-                                  ball_type=physics["ball_model"], ruler_tick_m=0.01)
-    message = str(refused.value)
-    factor = float(re.search(r"differ by a factor ([0-9.]+)", message).group(1))
-    spacing_m = float(re.search(r"by the ball's size they are ([0-9.]+) m apart", message).group(1))
-    assert factor == pytest.approx(10.0, rel=0.1) and spacing_m == pytest.approx(0.1, rel=0.1), message
-    assert "--ruler-tick-m" in message and "\n" not in message
+    result = dropfit.analyse_recording(path, ball_radius_m=physics["radius_m"], ball_mass_kg=physics["mass_kg"],
+                                       ball_type=physics["ball_model"], ruler_tick_m=0.01)
+    scale = result.fit["scale"]
+    assert scale["source"] == "gravity" and set(scale["suspect"]) == {"ruler"}
+    spacing_m = float(re.search(r"the marks found are ([0-9.]+) m apart", scale["suspect"]["ruler"]).group(1))
+    assert scale["disagreement"]["ruler"] == pytest.approx(-0.9, abs=0.02)
+    assert spacing_m == pytest.approx(0.1, rel=0.1) and "--ruler-tick-m" in scale["suspect"]["ruler"]
+    assert result.fit["time_base"]["capture_fps"] == pytest.approx(float(truth["clip"]["capture_fps_hz"]))
 
 
 @pytest.mark.slow

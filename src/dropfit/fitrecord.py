@@ -187,13 +187,18 @@ def _config(summary, settings):
 
 
 def _scale_record(attrs):
-    """The length scale of a px recording: source, value, relative se and the other scales' disagreements."""
+    """The length scale of a px recording: source, value, relative se, what the heights rest on
+    (:func:`dropfit.heightlog.heights_basis`), the other scales' disagreements and the suspect ones'
+    likely causes."""
+    from .heightlog import heights_basis
+
     if "scale_m_per_px" not in attrs:
         return None
-    prefix = "scale_disagreement_"
+    prefix, suspect = "scale_disagreement_", "scale_suspect_"
     return {"source": attrs.get("scale_source", attrs.get("calibration")), "m_per_px": attrs["scale_m_per_px"],
-            "rel_se": attrs.get("scale_rel_se", 0.0),
+            "rel_se": attrs.get("scale_rel_se", 0.0), "heights": heights_basis(attrs),
             "disagreement": {key[len(prefix):]: value for key, value in attrs.items() if key.startswith(prefix)},
+            "suspect": {key[len(suspect):]: value for key, value in attrs.items() if key.startswith(suspect)},
             "ruler_note": attrs.get("ruler_note"), "target_note": attrs.get("target_note"),
             "tilt_note": attrs.get("tilt_note")}
 

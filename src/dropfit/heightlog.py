@@ -29,7 +29,9 @@ from .physics import STANDARD_GRAVITY_M_S2, drag_parameter
 TIME_UNITS_S = {"s": 1.0, "ms": 1e-3}
 LENGTH_UNITS_M = {"m": 1.0, "cm": 1e-2, "mm": 1e-3}
 QUALITY_OK, QUALITY_DROPOUT = 0, 1
-#: A scale from gravity less precise than this (relative standard error) is refused.
+#: A scale from gravity less precise than this (relative standard error) is still used (e, flight-time and
+#: height ratios need no scale at all), but its heights are said to be only as good as it: a note says so, and
+#: the headline names what the heights rest on (:func:`heights_basis`).
 MAX_GRAVITY_SCALE_RELATIVE_SE = 0.01
 #: A header with more columns than this is refused before parsing (a height log has two; a
 #: million-column line took minutes to parse).
@@ -441,17 +443,71 @@ def scale_from_gravity(time_s, height_px, gravity_m_s2=STANDARD_GRAVITY_M_S2, so
                                     gravity_m_s2, seen_px)
     scale = gravity_m_s2 / fit.acceleration
     relative_se = float(np.hypot(fit.acceleration_se / fit.acceleration, speed_error_px / fit.largest_fall))
-    if relative_se > MAX_GRAVITY_SCALE_RELATIVE_SE:
-        raise InputError(f"{shown_path(source)}: cannot calibrate pixels from gravity: the flights give the scale only to "
-                         f"{100 * relative_se:.1f} %; give scale_m_per_px")
     details = {"gravity_scale_drag_model": fit.drag_model}
     for name, model in fit.models.items():
         key = name.split(" ")[0]
         details[f"gravity_scale_{key}_m_per_px"] = gravity_m_s2 / model["acceleration"]
         details[f"gravity_scale_{key}_weight"] = model.get("weight", 0.0)
-    if fit.note:
-        details["gravity_scale_note"] = fit.note
+    notes = [fit.note] if fit.note else []
+    if relative_se > MAX_GRAVITY_SCALE_RELATIVE_SE:
+        notes.append(f"the flights give the scale only to {100 * relative_se:.2g} %: e, the flight-time and height "
+                     f"ratios do not need it, the heights carry its error (give --scale-m-per-px for better heights)")
+    if notes:
+        details["gravity_scale_note"] = "; ".join(notes)
     return sign * scale, scale * relative_se, details
+
+
+#: Apparent acceleration over g (dimensionless) → the slip of units that makes it, for a log in m and s.
+UNIT_SLIPS = {100.0: "heights in cm under a metre header", 1000.0: "heights in mm under a metre header",
+              10.0: "heights in mm under a cm header", 0.01: "heights in m under a cm header",
+              0.001: "heights in m under a mm header", 0.1: "heights in cm under a mm header",
+              1e-6: "times in ms under a seconds header", 1e6: "times in s under a ms header"}
+#: A ratio within this factor of a slip's points to it (the flights found in slipped units are cut where g
+#: would cut them: a cm log read as m fell with 69 g, not 100 g).
+UNIT_SLIP_FACTOR = 2.0
+#: Height spans (m) a drop test's ball covers: a length slip is named only if it brings the log's span into them.
+PLAUSIBLE_SPAN_M = (0.005, 10.0)
+
+
+def acceleration_reading(acceleration_ratio, sample_rate_hz, span_m=np.nan):
+    """What a log's flights falling with ``acceleration_ratio`` × g point to, in words: a slip of units
+    (:data:`UNIT_SLIPS`; a length slip only where it brings the heights' span ``span_m``, m as read, into
+    :data:`PLAUSIBLE_SPAN_M`), a slow-motion time base (a table tracked on a slow-motion video at its playback
+    rate: :func:`dropfit.video.calibrate.slow_motion_reading` at ``sample_rate_hz``, samples/s), or None."""
+    from .video.calibrate import slow_motion_reading
+
+    if not (np.isfinite(acceleration_ratio) and acceleration_ratio > 0):
+        return None
+    readings = [words for ratio, words in UNIT_SLIPS.items()
+                if abs(math.log(acceleration_ratio / ratio)) < math.log(UNIT_SLIP_FACTOR)
+                and (words.startswith("times") or not np.isfinite(span_m)
+                     or PLAUSIBLE_SPAN_M[0] <= span_m / ratio <= PLAUSIBLE_SPAN_M[1])]
+    slow = slow_motion_reading(acceleration_ratio, sample_rate_hz,
+                               advice="if tracked on a slow-motion video, give that rate to the tracking tool")
+    readings += [f"its flights {slow}"] if slow else []
+    return "the numbers point to " + ", or ".join(readings) if readings else None
+
+
+def heights_basis(attrs):
+    """What a px recording's heights rest on, in words: "heights from g: scale known to 2.7 %" (a scale from the
+    flights' curvature), "heights from the diameter: scale known to 2 %" (another source), "heights from the
+    given scale"; the scales g names as suspect follow ("the diameter's is 19 % off g's: suspect"). None for a
+    recording in metres."""
+    if "scale_m_per_px" not in attrs:
+        return None
+    source = str(attrs.get("scale_source") or ("gravity" if str(attrs.get("calibration", "")).startswith(
+        "scale from gravity") else "given"))
+    relative = float(attrs.get("scale_rel_se") or 0.0)
+    words = "heights from g" if source == "gravity" else f"heights from the {source} scale"
+    if relative > 0:
+        words += f": scale known to {100 * relative:.2g} %"
+    for key in sorted(attrs):
+        if key.startswith("scale_suspect_"):
+            name = key[len("scale_suspect_"):]
+            off = attrs.get(f"scale_disagreement_{name}")
+            words += (f"; the {name} scale is {100 * abs(off):.0f} % off, suspect" if off is not None
+                      else f"; the {name} scale is suspect")
+    return words
 
 
 def nominal_drag_of(attrs):

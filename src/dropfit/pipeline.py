@@ -31,7 +31,7 @@ from .balls import ball_kind
 from .errors import InputError, NotFreeFallError, shown_path
 from .files import sha256_of
 from .fitrecord import analysis_summary, fit_summary, plain
-from .heightlog import nominal_drag_of, regulation_note, trajectory_from_log
+from .heightlog import acceleration_reading, nominal_drag_of, regulation_note, trajectory_from_log
 from .result import RecordingResult
 from .settings import Ball, Settings, split_options
 from .video.quality import SPEED_DEPENDENT_CENTRE_ERROR_PX, TRACKED_CENTRE_CORRELATION
@@ -281,8 +281,12 @@ def analyse_trajectory(trajectory, settings=None, source=None):
             else None
         analysis = analyse_bounces(time, trajectory["y"].values, seen_height_m=seen, **options)
     except NotFreeFallError as error:
-        if "video" not in attrs:
-            raise
+        if "video" not in attrs:  # wrong units or a time base off: say which the numbers point to
+            heights = trajectory["y"].values
+            reading = acceleration_reading(error.acceleration_m_s2 / options["gravity_m_s2"],
+                                           1.0 / interval if interval > 0 else np.nan, float(np.nanmax(heights)
+                                                                                             - np.nanmin(heights)))
+            raise NotFreeFallError(f"{error}; {reading}" if reading else str(error), error.acceleration_m_s2) from None
         raise InputError(video_limits.not_free_fall(attrs["video"], error.acceleration_m_s2, trajectory)) from None
     except InputError as error:
         if "video" not in attrs:

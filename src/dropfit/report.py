@@ -660,6 +660,11 @@ def _scale_rows(scale, time_base):
         rows.append(("Scale", f"{_num(scale['m_per_px'] * 1e3, '.5f')} mm/px from {_text(scale.get('source'))}, "
                               f"relative standard error {_num(100 * scale.get('rel_se', 0.0), '.3f')} %"
                               + (f"; other scales differ by {escape(others)}" if others else "")))
+        if scale.get("heights"):
+            rows.append(("Heights", _text(scale["heights"])))
+        for name, cause in (scale.get("suspect") or {}).items():
+            rows.append((f"Suspect {_text(name)} scale", _text(f"{cause}; g arbitrates: the flights fall with g "
+                                                              f"through the {scale.get('source')} scale")))
         for key, label in (("ruler_note", "Ruler"), ("target_note", "Plane target"), ("tilt_note", "Camera tilt")):
             if scale.get(key):
                 rows.append((label, _text(scale[key])))

@@ -182,7 +182,7 @@ class RecordingResult:
             about = f"{fitted}; {fusion.headline()}"
         return (f"{self.name}: e = {format_pm(e.value, e.stderr)} ({about}), drop height "
                 f"{format_pm(self.params['drop_height'].value, self.params['drop_height'].stderr)} m"
-                + ("" if itf == "not applicable" else f", ITF {itf}"))
+                + ("" if itf == "not applicable" else f", ITF {itf}") + _scale_headline(self.fit.get("scale")))
 
     def report(self):
         """Plain-text report with the sections of :data:`REPORT_SECTIONS`, always all and in that order."""
@@ -207,6 +207,18 @@ class RecordingResult:
 
     def __repr__(self):
         return f"<RecordingResult {self.summary()}; {len(self.params)} params, {len(self.notes)} notes>"
+
+
+def _scale_headline(scale):
+    """The headline's word on a px recording's heights: what they rest on when the scale is uncertain
+    (more than :data:`dropfit.heightlog.MAX_GRAVITY_SCALE_RELATIVE_SE`) or g named another scale suspect;
+    else nothing."""
+    from .heightlog import MAX_GRAVITY_SCALE_RELATIVE_SE
+
+    if not scale or not scale.get("heights"):
+        return ""
+    uncertain = (scale.get("rel_se") or 0.0) > MAX_GRAVITY_SCALE_RELATIVE_SE
+    return f" ({scale['heights']})" if uncertain or scale.get("suspect") else ""
 
 
 # --- parameters ------------------------------------------------------------------------------------
@@ -402,6 +414,9 @@ def _sections(result):
         rows.append(("scale", f"{_g(scale['m_per_px'])} m/px ({scale.get('source')}), relative se "
                               f"{_g(scale.get('rel_se'), 3)}" + "".join(
                                   f"; {name} {100 * value:+.3f} %" for name, value in (scale.get("disagreement") or {}).items())))
+        if scale.get("heights"):
+            rows.append(("heights", str(scale["heights"])))
+        rows.extend((f"suspect {name} scale", str(cause)) for name, cause in (scale.get("suspect") or {}).items())
     else:
         rows.append(("scale", str(fit.get("calibration") or missing)))
     if time_base:

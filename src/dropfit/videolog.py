@@ -8,7 +8,9 @@ gravity (the flights' shared acceleration in px/s², quadratic drag included, ov
 known diameter (its tracked radius in px against its radius in m). The one used is the first
 available in the precedence given > points > target > ruler > gravity > diameter (what the user
 states first, then by accuracy: see :mod:`dropfit.video.calibrate`); every other one is stored with
-its disagreement relative to it.
+its disagreement relative to it. g arbitrates the scales measured in the image: a target, ruler or
+diameter that disagrees with gravity's scale is suspect (``scale_suspect_<source>``: its likely cause),
+and gravity's is used, however uncertain (its error goes into the heights, not into e).
 
 A target in the ball's plane also gives the map from the image to that plane: the tracked centres
 are mapped through it, so a camera that is not square to the plane of the drop is corrected. The
@@ -24,7 +26,9 @@ given scale) goes with the trajectory, and the analysis adds its effect on every
 
 Time: a slow-motion file's container rate may be a playback rate. With a scale that does not
 come from gravity, the flights' acceleration in the file's time gives the capture rate, snapped to a
-common camera rate; ``capture_fps`` overrides it.
+common camera rate (the flights searched again at the common rates' slowdowns where the file's time
+hides them); ``capture_fps`` overrides it. Without such a scale, a clip whose gravity scale makes the
+ball larger than any ball is refused as slow motion, with the capture rate it would have.
 """
 
 from __future__ import annotations
@@ -34,8 +38,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from .video import limits as video_limits
-from .video.calibrate import (SCALE_PRECEDENCE, choose_scale, diameter_conflict, infer_capture_rate, rectify_rows,
-                              ruler_scale)
+from .video.calibrate import (ARBITRATED_SCALES, COMMON_CAPTURE_RATES_FPS, MIN_SLOW_MOTION_FACTOR, SCALE_PRECEDENCE,
+                              choose_scale, diameter_conflict, infer_capture_rate, rectify_rows, ruler_scale,
+                              scales_agree, slow_motion_reading)
 from .video.targets import aruco_plane, board_plane, local_scale_and_se, tilt_bias, to_plane, two_point_scale
 from .video.quality import speed_dependent_centre_error_px
 from .errors import InputError, shown_path
@@ -228,7 +233,7 @@ def trajectory_from_video(path, ball_radius_m=None, scale_m_per_px=None, capture
                                  ruler_tick_m, extra)
     if targets.points_px is not None:
         scales["points"] = two_point_scale(targets.points_px, targets.distance_m)
-    _check_against_diameter(path, scales, radius_px, extra)
+    conflict = _diameter_conflict(scales, radius_px)
     image_rows = rows
     if plane is not None:
         extra.pop("keystone_per_px", None)  # the target's map takes the tilt in full, or an affine one none of it
@@ -238,7 +243,12 @@ def trajectory_from_video(path, ball_radius_m=None, scale_m_per_px=None, capture
     if "keystone_per_px" not in extra and (plane is None or not plane.corrects_tilt):
         extra["tilt_scale_difference"], _, extra["tilt_note"] = tilt_bias(radius_px, image_rows[usable])
     seen_rows = _seen_rows(table, plane, extra)
-    time = _capture_time(table, rows, seen_rows, scales, capture_fps, gravity_m_s2, extra)
+    # a scale the diameter contradicts by a factor cannot set the time base: g arbitrates them in the file's time
+    time = _capture_time(table, rows, seen_rows, {} if conflict else scales, capture_fps, gravity_m_s2, extra)
+    if conflict and extra["capture_fps_source"] == "container":
+        extra["capture_rate_note"] = (f"the file's rate is taken as the capture rate: the {conflict[0]} scale and the "
+                                      f"ball's diameter differ by a factor {max(conflict[1], 1 / conflict[1]):.3g}, "
+                                      f"so neither can check it")
     extra.update(codec=table.attrs.get("codec") or "unknown",
                  speed_error_px=speed_dependent_centre_error_px(table.attrs.get("codec"), rows, time,
                                                                 table["blur_px"].to_numpy()))
@@ -246,6 +256,9 @@ def trajectory_from_video(path, ball_radius_m=None, scale_m_per_px=None, capture
         extra["gravity_calibration_failed"] = "gravity set the capture rate, so it gives no independent scale"
     else:
         _add_gravity_scale(scales, time, rows, seen_rows, gravity_m_s2, path, extra)
+    _check_against_diameter(path, scales, conflict, radius_px, extra)
+    if not capture_fps and not any(name in scales for name in SCALE_PRECEDENCE if name != "gravity"):
+        _check_time_base_by_size(path, scales, radius_px, time, rows, seen_rows, gravity_m_s2, extra)
     if not scales:
         raise InputError(f"{shown_path(path)}: no scale: give the ball radius, a ruler's tick spacing or scale_m_per_px "
                          f"({extra.get('gravity_calibration_failed', 'gravity calibration failed')})")
@@ -373,24 +386,36 @@ _CONFLICT_ADVICE = {
 }
 
 
-def _check_against_diameter(path, scales, radius_px, extra):
-    """InputError when the scale to be used (given, points, target, ruler) and the ball's diameter differ by
-    a factor (:func:`dropfit.video.calibrate.diameter_conflict`): one of them is wrong, and a capture rate
-    inferred through it would be too."""
+def _diameter_conflict(scales, radius_px):
+    """:func:`dropfit.video.calibrate.diameter_conflict` at the median tracked radius (px)."""
     median_radius_px = float(np.nanmedian(radius_px)) if np.isfinite(radius_px).any() else np.nan
-    conflict = diameter_conflict(scales, median_radius_px)
+    return diameter_conflict(scales, median_radius_px)
+
+
+def _check_against_diameter(path, scales, conflict, radius_px, extra):
+    """InputError when the scale to be used (given, points, target, ruler) and the ball's diameter differ by
+    a factor (``conflict``, :func:`dropfit.video.calibrate.diameter_conflict`) and g does not tell which is
+    right: the scale is one the user stated (given, points), or gravity's agrees with neither (or is
+    missing). Where gravity agrees with one, :func:`dropfit.video.calibrate.choose_scale` uses it and names
+    the other suspect."""
     if conflict is None:
         return
     source, ratio = conflict
+    if source in ARBITRATED_SCALES and "gravity" in scales and any(
+            scales_agree(scales[name], scales["gravity"]) for name in (source, "diameter")):
+        return
+    median_radius_px = float(np.nanmedian(radius_px))
     if source == "ruler":
         tick_m = extra["ruler_tick_m"]
         advice = (f"the ruler's marks are not {tick_m:g} m apart ({extra['ruler_note']}): by the ball's size they are "
                   f"{tick_m / ratio:.2g} m apart; give --ruler-tick-m for the marks seen, or check the ball radius (m)")
     else:
         advice = _CONFLICT_ADVICE[source]
+    gravity = (f"; gravity's scale ({1 / scales['gravity'][0]:.4g} px/m) agrees with neither" if "gravity" in scales
+               else "")
     raise InputError(f"{shown_path(path)}: not analysable: the {source} scale ({1 / scales[source][0]:.4g} px/m) and "
                      f"the ball's diameter ({1 / scales['diameter'][0]:.4g} px/m: radius {median_radius_px:.1f} px) "
-                     f"differ by a factor {max(ratio, 1 / ratio):.3g}; {advice}")
+                     f"differ by a factor {max(ratio, 1 / ratio):.3g}{gravity}; {advice}")
 
 
 def _rectified(rows_px, extra):
@@ -420,7 +445,10 @@ def _capture_time(table, rows, seen_rows, scales, capture_fps, gravity_m_s2, ext
 
     With a scale independent of gravity, the flights' acceleration in the file's time (found on the rows
     seen, fitted on the clean ``rows``) tells the capture rate
-    (:func:`dropfit.video.calibrate.infer_capture_rate`). Notes go into ``extra``.
+    (:func:`dropfit.video.calibrate.infer_capture_rate`). The flights are found with times of capture
+    (a contact's clearance, the lags of a bounce's dip are in seconds), so a slow-motion clip, whose
+    flights are not found in the file's time or fall far slower than g there, is searched again at the
+    slowdowns of the common capture rates (:func:`_slow_motion_rate`). Notes go into ``extra``.
     """
     time = table["time_s"].to_numpy()
     file_fps = float(table.attrs.get("container_fps") or 0.0)
@@ -437,13 +465,17 @@ def _capture_time(table, rows, seen_rows, scales, capture_fps, gravity_m_s2, ext
                                        "gravity (ball radius, ruler or given scale) to check it")
         return time
     try:
-        _, fit = flight_acceleration(time, rows, str(extra["video"]), *nominal_drag_of(extra), gravity_m_s2,
-                                     seen_rows)
+        rate = infer_capture_rate(_file_time_acceleration(time, rows, seen_rows, extra, gravity_m_s2),
+                                  scales[reference][0], file_fps, gravity_m_s2)
+        failed = None
     except InputError as error:
+        rate, failed = None, error
+    if rate is None or rate["capture_fps"] >= MIN_SLOW_MOTION_FACTOR * file_fps:
+        rate = _slow_motion_rate(time, rows, seen_rows, extra, gravity_m_s2, scales[reference][0], file_fps) or rate
+    if rate is None:
         extra.update(capture_fps=file_fps, capture_fps_source="container",
-                     capture_rate_note=f"the file's rate is taken as the capture rate ({error})")
+                     capture_rate_note=f"the file's rate is taken as the capture rate ({failed})")
         return time
-    rate = infer_capture_rate(fit.acceleration, scales[reference][0], file_fps, gravity_m_s2)
     source = ("container" if rate["capture_fps"] == file_fps
               else video_limits.GRAVITY_CAPTURE_RATE_SOURCE if rate["snapped"] else _RAW_RATE_SOURCE)
     extra.update(capture_fps=rate["capture_fps"], capture_fps_source=source,
@@ -452,15 +484,113 @@ def _capture_time(table, rows, seen_rows, scales, capture_fps, gravity_m_s2, ext
     return time * file_fps / rate["capture_fps"]
 
 
+def _file_time_acceleration(time, rows, seen_rows, extra, gravity_m_s2, slowdown=1.0):
+    """The flights' downward acceleration in px/s² of the file's time, found and fitted in the file's time
+    divided by ``slowdown`` (a capture rate over the file's)."""
+    _, fit = flight_acceleration(time / slowdown, rows, str(extra["video"]), *nominal_drag_of(extra), gravity_m_s2,
+                                 seen_rows)
+    return fit.acceleration / slowdown**2
+
+
+def _slow_motion_fits(time, rows, seen_rows, extra, gravity_m_s2, file_fps):
+    """(capture rate tried in frames/s, the flights' acceleration in px/s² of the file's time) for each common
+    capture rate at least :data:`dropfit.video.calibrate.MIN_SLOW_MOTION_FACTOR` times the file's, in order, at
+    which the flights are found (:func:`_file_time_acceleration`)."""
+    for candidate in COMMON_CAPTURE_RATES_FPS:
+        if candidate < MIN_SLOW_MOTION_FACTOR * file_fps:
+            continue
+        try:
+            yield candidate, _file_time_acceleration(time, rows, seen_rows, extra, gravity_m_s2, candidate / file_fps)
+        except InputError:
+            continue
+
+
+#: A slowdown tried for a slow-motion clip is taken when the capture rate gravity then gives is within this
+#: relative distance of the rate tried (the flights found at the right time base give it back).
+SLOW_MOTION_CONSISTENCY = 0.1
+
+
+def _slow_motion_rate(time, rows, seen_rows, extra, gravity_m_s2, scale_m_per_px, file_fps):
+    """:func:`dropfit.video.calibrate.infer_capture_rate` of the flights found in the time of a capture at a
+    common rate (:data:`dropfit.video.calibrate.COMMON_CAPTURE_RATES_FPS`, slower than the file's by
+    :data:`dropfit.video.calibrate.MIN_SLOW_MOTION_FACTOR` or more), the first that gives back its own rate
+    within :data:`SLOW_MOTION_CONSISTENCY`; None if none does."""
+    for candidate, acceleration in _slow_motion_fits(time, rows, seen_rows, extra, gravity_m_s2, file_fps):
+        rate = infer_capture_rate(acceleration, scale_m_per_px, file_fps, gravity_m_s2)
+        if abs(rate["estimate_fps"] / candidate - 1.0) <= SLOW_MOTION_CONSISTENCY:
+            # the flights found at that rate, fitted again at the rate they give
+            slowdown = rate["capture_fps"] / file_fps
+            try:
+                again = _file_time_acceleration(time, rows, seen_rows, extra, gravity_m_s2, slowdown)
+            except InputError:
+                return rate
+            return infer_capture_rate(again, scale_m_per_px, file_fps, gravity_m_s2)
+    return None
+
+
+#: Radii (m) of the balls drop tests use, from a bead to a basketball: a scale from gravity that makes the tracked
+#: ball far larger says the clip's time runs slow (slow motion), far smaller that it runs fast.
+PLAUSIBLE_BALL_RADIUS_M = (0.002, 0.15)
+#: Radius (m) taken for a ball whose size is not known, to say what capture rate a slow clip would have.
+TYPICAL_BALL_RADIUS_M = 0.03
+
+
+def _check_time_base_by_size(path, scales, radius_px, time, rows, seen_rows, gravity_m_s2, extra):
+    """InputError when the only scale, gravity's in the file's time, makes the tracked ball larger than any ball
+    (:data:`PLAUSIBLE_BALL_RADIUS_M`), or gravity gives no scale in the file's time but does at a common capture
+    rate's: the clip is slow motion, and without the ball's size its capture rate cannot be inferred
+    (:func:`_capture_time`). The refusal says how many times slower than g it falls for a ball of the kind's
+    regulation size (else :data:`TYPICAL_BALL_RADIUS_M`) and the capture rate that would be."""
+    from .balls import ball_kind
+
+    radius = float(np.nanmedian(radius_px)) if np.isfinite(radius_px).any() else np.nan
+    if not (np.isfinite(radius) and radius > 0):
+        return
+    file_fps = 1.0 / float(np.median(np.diff(time)))
+    if "gravity" in scales:
+        implied_m = scales["gravity"][0] * radius
+        if implied_m <= PLAUSIBLE_BALL_RADIUS_M[1]:
+            return
+        acceleration = gravity_m_s2 / scales["gravity"][0]  # px/s² of the file's time
+    else:
+        # the first common capture rate at which the flights are found and the ball has a plausible size
+        acceleration = next((found for candidate, found in _slow_motion_fits(time, rows, seen_rows, extra,
+                                                                               gravity_m_s2, file_fps)
+                             if PLAUSIBLE_BALL_RADIUS_M[0] <= gravity_m_s2 / (found * (candidate / file_fps) ** 2)
+                             * radius <= PLAUSIBLE_BALL_RADIUS_M[1]), None)
+        if acceleration is None:
+            return
+        implied_m = gravity_m_s2 / acceleration * radius
+    try:
+        regulation = ball_kind(extra.get("ball_type")).regulation
+    except InputError:
+        regulation = None
+    ball_m, kind = (regulation.radius_m, f"as a {extra.get('ball_type')} ball") if regulation is not None else \
+        (TYPICAL_BALL_RADIUS_M, f"if {100 * TYPICAL_BALL_RADIUS_M:g} cm in radius")
+    reading = slow_motion_reading(acceleration * ball_m / radius / gravity_m_s2, file_fps,
+                                  advice="give --capture-fps {rate:g} and --ball-radius-m")
+    if reading is None:
+        return
+    raise InputError(f"{shown_path(path)}: not analysable: gravity's scale in the file's time makes the ball "
+                     f"({radius:.1f} px) {implied_m:.3g} m in radius; {kind} it {reading}")
+
+
 def _record_scales(scales, extra):
-    """Choose the scale by precedence; store every scale, the others' disagreements and the chosen one's
-    relative standard error in ``extra``. Returns the chosen source and its scale in m/px."""
-    chosen, disagreements = choose_scale(scales)
+    """Choose the scale (:func:`dropfit.video.calibrate.choose_scale`: by precedence, g arbitrating); store every
+    scale, the others' disagreements, the suspect ones' likely causes (``scale_suspect_<source>``) and the chosen
+    one's relative standard error in ``extra``. Returns the chosen source and its scale in m/px."""
+    chosen, disagreements, suspects = choose_scale(scales)
     scale, scale_se = scales[chosen]
     for name, (value, se) in scales.items():
         extra[f"scale_{name}_m_per_px"], extra[f"scale_{name}_se_m_per_px"] = value, se
     for name, disagreement in disagreements.items():
         extra[f"scale_disagreement_{name}"] = disagreement
+    for name, cause in suspects.items():  # the flights fall with g through gravity's scale, not through these
+        if name == "ruler":  # what its marks' spacing is by gravity's scale
+            spacing_m = extra["ruler_tick_m"] * scales["gravity"][0] / scales["ruler"][0]
+            cause += (f"; by gravity's scale the marks found are {spacing_m:.2g} m apart, not "
+                      f"{extra['ruler_tick_m']:g} m")
+        extra[f"scale_suspect_{name}"] = cause
     extra.update(scale_source=chosen, scale_m_per_px=scale, scale_rel_se=scale_se / scale)
     return chosen, scale
 

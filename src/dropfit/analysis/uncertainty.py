@@ -127,8 +127,9 @@ def quantity_covariance(model, result, quantities, held_k_se=0.0, held_k_slopes=
     gravity_se_m_s2 : float
         Standard error of g (m/s²).
     gravity_scaled : bool
-        The heights were brought to m by a scale from gravity: an error of g then scales every length
-        with it and leaves times and ratios alone, instead of moving the fit.
+        The heights were brought to m by a scale from gravity: an error of g, and the scale's own error
+        (``scale_rel_se``), then scale every length with it and leave times and ratios (e) alone, instead
+        of moving the fit.
     extra_parts : dict, optional
         More systematic parts, name → each quantity's signed share (same layout as the vector).
     speed_error_m : float
@@ -190,10 +191,17 @@ def quantity_covariance(model, result, quantities, held_k_se=0.0, held_k_slopes=
     if speed_error_m > 0:
         for name, pattern in zip(("speed_error_odd", "speed_error_even"), model.speed_patterns(theta, speed_error_m)):
             parts[name] = jac @ refit_response(result, pattern)
-    # the length scale's error moves every quantity together: a rank-one term in their covariance
-    scale_part = scale_rel_se * np.nan_to_num(scale_sensitivity(quantities, result)
-                                              + slopes.get("scale", 0.0) * k_sensitivity) if scale_rel_se \
-        else np.zeros(vector.size)
+    # the length scale's error moves every quantity together: a rank-one term in their covariance. A scale from
+    # gravity made the flights fall with g whatever it is off by: its error scales every length (heights,
+    # speeds) and leaves times and ratios (e) alone, as an error of g does; another scale's error, with g held,
+    # moves the fit
+    if not scale_rel_se:
+        scale_part = np.zeros(vector.size)
+    elif gravity_scaled:
+        scale_part = scale_rel_se * vector * length_dimension(quantities.n_impacts)
+    else:
+        scale_part = scale_rel_se * np.nan_to_num(scale_sensitivity(quantities, result)
+                                                  + slopes.get("scale", 0.0) * k_sensitivity)
     for part in [*parts.values(), scale_part]:
         part = np.nan_to_num(part)
         cov += np.outer(part, part)

@@ -17,7 +17,9 @@ its model leaves out (without a ruler or target to rectify the rows, a camera ti
 speed-dependent curvature, +0.2 % at 0.5°); the tracked diameter depends on the
 edge threshold, the ball's shading, blur and compression (1–3 % on phonesim's colour clips:
 :data:`dropfit.videolog.DIAMETER_SCALE_RELATIVE_SE`). Every other available scale is reported with
-its disagreement relative to the chosen one, s_other / s_chosen − 1.
+its disagreement relative to the chosen one, s_other / s_chosen − 1. g arbitrates (:func:`choose_scale`):
+a target, ruler or diameter that disagrees with gravity's scale beyond their errors is suspect and named
+with its likely cause (:data:`SUSPECT_CAUSES`), and the next scale is used.
 
 Ruler
 -----
@@ -523,8 +525,42 @@ def diameter_conflict(scales, radius_px):
     return chosen, ratio
 
 
+#: Scales that gravity arbitrates: measured in the image, each with a way of being off that its own standard error
+#: does not hold (what the user states, a given scale or two points, is used as stated).
+ARBITRATED_SCALES = ("target", "ruler", "diameter")
+#: A scale agrees with gravity's within this many standard errors of the two together ...
+SCALE_AGREEMENT_SIGMAS = 3.0
+#: ... or within this relative difference, whichever is larger: what each one's model leaves out (a ruler a little
+#: nearer the camera than the ball, a camera's tilt bending the flights) is of this order.
+SCALE_AGREEMENT_FLOOR = 0.03
+#: What makes each arbitrated scale disagree with gravity, as the report names it.
+SUSPECT_CAUSES = {
+    "diameter": "the ball's tracked outline is not its size (a halo, motion blur, shading or its shadow), or its "
+                "radius is not the one given",
+    "ruler": "the ruler is not in the ball's plane (nearer or farther from the camera: perspective), or its ticks "
+             "were misread (check --ruler-tick-m)",
+    "target": "the marker or board is not in the ball's plane, or its printed size is not the one given",
+}
+
+
+def scales_agree(first, second):
+    """True when two (scale in m/px, se in m/px) agree within :data:`SCALE_AGREEMENT_SIGMAS` of their combined
+    relative standard error or :data:`SCALE_AGREEMENT_FLOOR`, whichever is larger."""
+    (a, a_se), (b, b_se) = first, second
+    combined = float(np.hypot(a_se / a, b_se / b))
+    return abs(a / b - 1.0) <= max(SCALE_AGREEMENT_SIGMAS * combined, SCALE_AGREEMENT_FLOOR)
+
+
 def choose_scale(scales):
-    """The scale to use and every other one's disagreement with it.
+    """The scale to use, every other one's disagreement with it, and the scales gravity names as suspect.
+
+    The first in :data:`SCALE_PRECEDENCE` is used, except that g arbitrates the scales measured in the
+    image (:data:`ARBITRATED_SCALES`): one that disagrees with gravity's (:func:`scales_agree`) is suspect
+    and not used; g is known to 0.3 % anywhere, a ball's apparent diameter or a ruler's distance from the
+    ball's plane is not. Gravity's scale comes before the diameter's however uncertain it is: it makes the
+    flights fall with g by construction, so e, fitted with g held, takes no bias from it (a diameter 16 % off,
+    within three of its and an imprecise gravity's standard errors, bends every flight by 16 %), and its
+    uncertainty goes into the heights alone.
 
     Parameters
     ----------
@@ -533,12 +569,52 @@ def choose_scale(scales):
 
     Returns
     -------
-    (str, dict)
-        The chosen source, and source → s / s_chosen − 1 (dimensionless) for every other source.
+    (str, dict, dict)
+        The chosen source; source → s / s_chosen − 1 (dimensionless) for every other source; suspect
+        source → its likely cause (:data:`SUSPECT_CAUSES`).
     """
-    chosen = next(name for name in SCALE_PRECEDENCE if name in scales)
+    gravity = scales.get("gravity")
+    suspects = {} if gravity is None else {
+        name: SUSPECT_CAUSES[name] for name in ARBITRATED_SCALES
+        if name in scales and not scales_agree(scales[name], gravity)}
+    chosen = next(name for name in SCALE_PRECEDENCE if name in scales and name not in suspects)
     reference = scales[chosen][0]
-    return chosen, {name: value / reference - 1.0 for name, (value, _) in scales.items() if name != chosen}
+    return (chosen, {name: value / reference - 1.0 for name, (value, _) in scales.items() if name != chosen},
+            suspects)
+
+
+def slow_motion_reading(acceleration_ratio, file_fps, advice="give --capture-fps {rate:g}"):
+    """What an acceleration far below g in a file's time says of its time base, or None.
+
+    Slow motion plays a capture back ``capture/file`` times slower, so the flights fall with
+    g·(file/capture)² in the file's time: a ratio a/g of at most 1/:data:`MIN_SLOW_MOTION_FACTOR`² points
+    to it, at a capture rate of about file·√(g/a), snapped to a common rate within
+    :data:`CAPTURE_RATE_SNAP_TOLERANCE` (or the nearest 10 % otherwise).
+
+    Parameters
+    ----------
+    acceleration_ratio : float
+        The flights' downward acceleration in the file's time over g (dimensionless).
+    file_fps : float
+        The file's frame or sample rate, frames/s.
+    advice : str
+        What to do, formatted with the ``rate`` (frames/s).
+
+    Returns
+    -------
+    str or None
+        One clause, e.g. "falls 1110 times slower than g: a slow-motion clip? its capture rate would be about
+        1000 fps; give --capture-fps 1000", or None when the ratio does not point to slow motion.
+    """
+    if not (np.isfinite(acceleration_ratio) and 0 < acceleration_ratio <= MIN_SLOW_MOTION_FACTOR ** -2) \
+            or not (np.isfinite(file_fps) and file_fps > 0):
+        return None
+    estimate = file_fps / float(np.sqrt(acceleration_ratio))
+    common = np.asarray(COMMON_CAPTURE_RATES_FPS, dtype=float)
+    nearest = float(common[np.argmin(np.abs(common / estimate - 1.0))])
+    rate = nearest if abs(nearest / estimate - 1.0) <= CAPTURE_RATE_SNAP_TOLERANCE else float(f"{estimate:.2g}")
+    return (f"falls {1.0 / acceleration_ratio:.0f} times slower than g: a slow-motion clip? its capture rate would "
+            f"be about {rate:g} fps ({file_fps:.4g} fps in the file); {advice.format(rate=rate)}")
 
 
 def infer_capture_rate(acceleration_px_s2, scale_m_per_px, file_fps, gravity_m_s2):

@@ -40,6 +40,7 @@ import pandas as pd
 from ..analysis import estimate_noise, se_column_name
 from ..errors import InputError, shown_path
 from ..physics import STANDARD_GRAVITY_M_S2
+from .calibrate import slow_motion_reading
 from .quality import (QUALITY_DUPLICATE, QUALITY_LOST, QUALITY_OCCLUDED, QUALITY_PARTIAL, QUALITY_SHADED,
                       usable_rows)
 
@@ -196,6 +197,13 @@ def not_free_fall(source, acceleration_m_s2, trajectory):
     interval_s = float(np.median(np.diff(times))) if times.size > 1 else np.nan
     fall_s = math.sqrt(2.0 * span / STANDARD_GRAVITY_M_S2)
     well_tracked = measured.mean() >= WELL_TRACKED_FRACTION if measured.size else False
+    # far slower than g: a time base off (slow motion stored at a playback rate), the first cause of a ball tracked
+    # well, one of two of a ball lost in many frames
+    slow = slow_motion_reading(acceleration_m_s2 / STANDARD_GRAVITY_M_S2, 1.0 / interval_s)
+    if slow and well_tracked:
+        return f"{said}; it {slow}"
+    if slow:
+        said = f"{said}; if it was tracked right, it {slow}; else"
     sparse = np.isfinite(interval_s) and interval_s > 0 and fall_s < MIN_FRAME_INTERVALS_PER_FLIGHT * interval_s
     if well_tracked and sparse:
         needed = math.ceil(MIN_FRAME_INTERVALS_PER_FLIGHT / fall_s) if fall_s > 0 else math.inf
