@@ -296,8 +296,9 @@ def analyse_trajectory(trajectory, settings=None, source=None):
         analysis = _across_hidden_flights(analysis, time, trajectory["y"].values, seen, options)
         # the limits count captures: a 30 Hz clip in a 60 fps file films a flight in half as many frames
         captures = capture_interval(time, trajectory["y_seen"].values if "y_seen" in trajectory else None)
+        clean_s = time[np.isfinite(trajectory["y"].values)]
         analysis = video_limits.select_resolved_impacts(analysis, attrs["video"], captures,
-                                                        attrs.get("frames_unclean"))
+                                                        attrs.get("frames_unclean"), clean_s)
         if not analysis.impacts["in_fit"].any():  # every e unphysical: the tracking, not the ball, is the cause
             first = analysis.impacts[np.isfinite(analysis.impacts["e"])].iloc[0]  # (a resolved impact has an e)
             reason = str(first["note"]).split(";")[0]

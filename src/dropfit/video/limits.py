@@ -289,11 +289,12 @@ def unclean_frames(table):
     return f"{described}; tracked in {channel}" if channel else described
 
 
-def _flight_problem(side, span, clean, frame_interval_s):
+def _flight_problem(side, span, clean, frame_interval_s, share_judged=True):
     """Why one flight around an impact is too poorly filmed to measure, as (diagnosis, advice), or None.
 
     ``side`` is "before" or "after" (the impact), ``span`` the frame intervals the flight lasts, ``clean`` its
-    clean frames (those in its fit), ``frame_interval_s`` the time between frames (s)."""
+    clean frames (those in its fit), ``frame_interval_s`` the time between frames (s); ``share_judged`` false where
+    the clip as a whole is measured cleanly enough (:func:`clean_share`) for its flights' clean share not to matter."""
     rate = 1.0 / frame_interval_s
     if span < MIN_FRAME_INTERVALS_PER_FLIGHT:
         needed = math.ceil(rate * MIN_FRAME_INTERVALS_PER_FLIGHT / span) if span > 0 else math.inf
@@ -307,13 +308,13 @@ def _flight_problem(side, span, clean, frame_interval_s):
         return (f"clean frames in the flight {side} it: {int(clean)} < {MIN_CLEAN_FRAMES_PER_FLIGHT}",
                 f"{faster}, with a shorter exposure")
     fraction = min(clean / max(span, 1.0), 1.0)
-    if fraction < MIN_CLEAN_FRACTION:
+    if share_judged and fraction < MIN_CLEAN_FRACTION:
         return (f"the flight {side} it is measured cleanly in {fraction:.0%} of its frames < {MIN_CLEAN_FRACTION:.0%}",
                 TRACKER_HELP)
     return None
 
 
-def _impact_problems(impacts_row, frames_before, frames_after, frame_interval_s):
+def _impact_problems(impacts_row, frames_before, frames_after, frame_interval_s, share_judged=True):
     """The problems (:func:`_flight_problem`) of the flights before and after one impact: a dict, by side. A
     flight not fitted (NaN span: seen in too few frames, :func:`join_later_sequence`) is one."""
     problems = {}
@@ -323,7 +324,7 @@ def _impact_problems(impacts_row, frames_before, frames_after, frame_interval_s)
             problems[side] = (f"the flight {side} it is seen in {int(clean)} frames, too few to fit (hidden or lost)",
                               TRACKER_HELP)
             continue
-        problem = _flight_problem(side, span, clean, frame_interval_s)
+        problem = _flight_problem(side, span, clean, frame_interval_s, share_judged)
         if problem is not None:
             problems[side] = problem
     return problems
@@ -477,7 +478,17 @@ def join_later_sequence(analysis, later, hidden_flight, seen_s):
                                summary=summary)
 
 
-def select_resolved_impacts(analysis, source, frame_interval_s, unclean=None):
+def clean_share(clean_times_s, frame_interval_s):
+    """The share of a clip's frames, from its first clean one to its last, that are clean (``clean_times_s``: the
+    clean frames' times, s): the measure the sweep's limit :data:`MIN_CLEAN_FRACTION` was set on. Where it is
+    met, a flight seen partly behind a hand or merged with a shadow is judged by its clean frames alone."""
+    times = np.asarray(clean_times_s, dtype=float)
+    if times.size < 2:
+        return 0.0
+    return min(times.size / ((times.max() - times.min()) / frame_interval_s + 1.0), 1.0)
+
+
+def select_resolved_impacts(analysis, source, frame_interval_s, unclean=None, clean_times_s=None):
     """Judge each impact by its own two flights: an impact whose flight before or after is too poorly filmed
     (:func:`flight_violation`: too few frame intervals, too few clean frames, too small a part of its frames clean)
     keeps its row with no e and the reason; the others keep their e, whatever the flights elsewhere.
@@ -500,6 +511,9 @@ def select_resolved_impacts(analysis, source, frame_interval_s, unclean=None):
     unclean : str, optional
         What the frames not measured cleanly were (:func:`unclean_frames`), told when no impact is measured
         for want of clean frames.
+    clean_times_s : array_like, optional
+        Times (s) of the frames measured cleanly: where the clip's clean share (:func:`clean_share`) meets
+        :data:`MIN_CLEAN_FRACTION`, no flight is judged by its own share; without them, every flight is.
 
     Returns
     -------
@@ -517,7 +531,8 @@ def select_resolved_impacts(analysis, source, frame_interval_s, unclean=None):
         analysis's notes on the flights it could not fit (before its first flight, after the sequence's end).
     """
     spans = flight_spans(analysis, frame_interval_s)
-    problems = [_impact_problems(row, before, after, frame_interval_s)
+    share_judged = clean_times_s is None or clean_share(clean_times_s, frame_interval_s) < MIN_CLEAN_FRACTION
+    problems = [_impact_problems(row, before, after, frame_interval_s, share_judged)
                 for (_, row), before, after in zip(analysis.impacts.iterrows(), *spans)]
     numbers = analysis.impacts["impact"].astype(int).tolist()
     if problems and all(problems):
