@@ -59,8 +59,8 @@ from .link import extrapolated, find_flight
 from .opencv import cv2
 # the flags and the centre's correlation, kept importable from here (overlay, tests)
 from .quality import (CLEAN_QUALITIES, MAX_PARTIAL_FIT_RMS_PX, QUALITY_BLURRED, QUALITY_DUPLICATE,  # noqa: F401
-                      QUALITY_LOST, QUALITY_OCCLUDED, QUALITY_OK, QUALITY_PARTIAL, QUALITY_SHADED,
-                      TRACKED_CENTRE_CORRELATION, usable_rows)
+                      QUALITY_LOST, QUALITY_OCCLUDED, QUALITY_OFF_TRACK, QUALITY_OK, QUALITY_PARTIAL, QUALITY_SHADED,
+                      TRACKED_CENTRE_CORRELATION, mark_off_track, usable_rows)
 
 COLUMNS = ["frame", "time_s", "x_px", "y_px", "radius_px", "quality", "centre_se_px", "fit_rms_px", "blur_px"]
 
@@ -792,9 +792,11 @@ def _table(rows, times_s):
     quality[repeats] = QUALITY_DUPLICATE
     for column in (x, y, r, centre_se, fit_rms, blur):
         column[repeats] = np.nan
-    return pd.DataFrame({"frame": np.arange(len(rows)), "time_s": np.asarray(times_s, float), "x_px": x, "y_px": y,
-                         "radius_px": r, "quality": list(quality), "centre_se_px": centre_se, "fit_rms_px": fit_rms,
-                         "blur_px": blur}, columns=COLUMNS)
+    table = pd.DataFrame({"frame": np.arange(len(rows)), "time_s": np.asarray(times_s, float), "x_px": x, "y_px": y,
+                          "radius_px": r, "quality": list(quality), "centre_se_px": centre_se, "fit_rms_px": fit_rms,
+                          "blur_px": blur}, columns=COLUMNS)
+    # positions the ballistic track does not support (a jump to something beside the ball) are left out
+    return mark_off_track(table)
 
 
 def track_frames(frames, times_s, expected_radius_px=None, *, background=None, source="frames", hints=None):
