@@ -502,3 +502,23 @@ def test_positions_off_the_ballistic_track_are_left_out_and_counted(tmp_path):
         e_true = true_e["e"].iloc[int(np.argmin(np.abs(true_e["t_touchdown_s"] - impact["t_touchdown_s"])))]
         assert abs(impact["e"] - e_true) <= 0.005, result.impacts
         assert impact["e_ci95_low"] <= e_true <= impact["e_ci95_high"], result.impacts
+
+
+def test_a_radius_learnt_too_large_is_learnt_again_from_the_balls_in_flight(capsys):
+    """The green ball's real clip (issue 32): the radius learnt from the frame the hand let the ball go was 46.7 px
+    (a finger's edge with it), the ball then measured 41-44.5 px alone in every flight frame, and each was flagged
+    occluded (5 % short: partly hidden), so no ``ok`` ball could correct the radius: 19 % of the frames clean.
+    Here the radius expected is 9 % too large: once the ball has been measured alone at one smaller size in four
+    frames in a row while in flight, it is ``ok`` again, at its true radius and centre."""
+    rng = np.random.default_rng(7)
+    radius = 12.3
+    frames, truth = clip_frames(rng, radius=radius)
+    table = track_frames(frames, np.arange(len(frames)) / 100.0, expected_radius_px=1.09 * radius)
+    ok = (table["quality"] == QUALITY_OK).to_numpy()
+    report(capsys, f"radius expected 9 % too large: {ok.sum()} of {len(ok)} frames ok, from frame "
+                   f"{np.flatnonzero(ok)[0] if ok.any() else None}")
+    assert ok.sum() >= 12
+    assert ok[-10:].all()
+    errors = centre_errors(table, truth)[ok]
+    assert rms(errors) <= CLEAN_RMS_TOLERANCE_PX
+    assert np.abs(table["radius_px"].to_numpy()[ok] - radius).max() <= RADIUS_TOLERANCE_PX
