@@ -30,6 +30,20 @@ def _yellow_flicker_portrait(capture_fps: Fraction) -> ClipConfig:
     )
 
 
+def _door(ball: BallStyle, exposure_s: float) -> ClipConfig:
+    """A small phone clip, 314 x 486 at 20 fps exposed ``exposure_s``, of ``ball`` dropped from a hand before a dark
+    wooden door."""
+    return ClipConfig(
+        width_px=314, height_px=486, drop_height_m=0.9, ball=ball,
+        scene=SceneStyle(wall_rgb=(72, 52, 38), wall_texture=0.05, floor="wood", floor_rgb=(150, 110, 70),
+                         wall_shadow=0.3),
+        hand=HandStyle(hold_s=1.0, arm_angle_deg=70.0),
+        camera=CameraSetup(scale_px_per_m=450.0, drop_column_frac=0.5, floor_row_frac=0.9),
+        timing=FrameTiming(capture_fps=Fraction(20), exposure_s=exposure_s, pts_jitter_s=5e-4),
+        sensor=SensorEffects(noise_sd_dn=3.0),
+    )
+
+
 PRESETS: dict[str, ClipConfig] = {
     "green_board_avi": ClipConfig(
         width_px=1920, height_px=1080, codec="mpeg4", drop_height_m=1.25,
@@ -84,6 +98,12 @@ PRESETS: dict[str, ClipConfig] = {
         sensor=SensorEffects(noise_sd_dn=2.0),
         rulers=(Ruler("tape", 1.1, 0.025, zero_m=(-0.25, 0.0), colour_rgb=(240, 205, 40)),),
     ),
+    # a small 20 fps clip (314 x 486) of a white table-tennis ball before a dark wooden door, dropped from a hand; the
+    # room is dim, and the phone exposes each frame for its whole interval: the falling ball is a streak
+    "white_pingpong_door": _door(BallStyle("table_tennis", colour_rgb=(240, 240, 232), ambient=0.7, specular=0.2),
+                                 exposure_s=1 / 20),
+    # ... and a tennis ball before the same door, lit better
+    "tennis_door": _door(BallStyle("tennis", colour_rgb=(205, 222, 65), ambient=0.6, seam=True), exposure_s=1 / 100),
     "yellow_flicker_portrait": _yellow_flicker_portrait(Fraction(30)),
     "yellow_flicker_portrait_120": _yellow_flicker_portrait(Fraction(120)),
     "yellow_flicker_portrait_240": _yellow_flicker_portrait(Fraction(240)),

@@ -463,3 +463,94 @@ def test_motion_blur_is_measured_from_the_coverage_moments():
     assert blurred.sum() >= 10 and still.sum() >= 3
     assert np.all(np.abs(measured[blurred] / step_px[blurred] - 1) <= 0.10), np.c_[step_px, measured][blurred]
     assert np.all(measured[still] < 2.0), measured[still]
+
+
+def test_positions_off_the_ballistic_track_are_left_out_and_counted(tmp_path):
+    """Issue 32: a tennis ball before a dark door (20 fps, 314 × 486 px) with its circle 60 px beside the ball in 6
+    frames about impacts 2-4 gave e = 0.708 ± 0.015 against its sound's 0.670 ± 0.002: a tracking jump taken for a
+    measurement. phonesim's clip of that scene, tracked, with six positions about impacts 2-4 moved 55 px aside and
+    25 px up as such a jump: those six, and no other, are flagged ``off_track``, left out, counted in the trajectory
+    and named in the notes, and e stays within 0.005 of the truth with the truth inside its interval."""
+    from helpers import phone_clip
+
+    from dropfit.pipeline import process_recording, split_options
+    from dropfit.settings import Settings
+    from dropfit.video.quality import QUALITY_OFF_TRACK, mark_off_track
+    from dropfit.video.track import TrackedVideo, track_video_and_background
+
+    path, truth = phone_clip("tennis_door", tmp_path, seed=1, downscale=1.0, duration_s=4.0)
+    tracked = track_video_and_background(path)
+    table = tracked.table
+    assert not (table["quality"] == QUALITY_OFF_TRACK).any(), table[table["quality"] == QUALITY_OFF_TRACK]
+    usable = np.flatnonzero(usable_rows(table))
+    jumped = []
+    for impact in truth["physics"]["impacts"][1:4]:
+        jumped += list(usable[np.argsort(np.abs(table["time_s"].to_numpy()[usable] - impact["t_touchdown_s"]))[:2]])
+    table = table.copy()
+    table.loc[jumped, "x_px"] += 55.0
+    table.loc[jumped, "y_px"] -= 25.0
+    assert sorted(np.flatnonzero(mark_off_track(table)["quality"] == QUALITY_OFF_TRACK)) == sorted(jumped)
+    physics = truth["physics"]
+    ball, _ = split_options({"ball_radius_m": physics["radius_m"], "ball_mass_kg": physics["mass_kg"],
+                             "ball_type": physics["ball_model"]})
+    result = process_recording(path, ball, Settings(), tracked=TrackedVideo(table, tracked.background))
+    assert result.trajectory.attrs["frames_off_track"] == 6
+    assert any("off the ballistic track" in note for note in result.notes), result.notes
+    true_e = pd.DataFrame(physics["impacts"])
+    assert len(result.impacts) >= 2, result.impacts
+    for _, impact in result.impacts.iterrows():
+        e_true = true_e["e"].iloc[int(np.argmin(np.abs(true_e["t_touchdown_s"] - impact["t_touchdown_s"])))]
+        assert abs(impact["e"] - e_true) <= 0.005, result.impacts
+        assert impact["e_ci95_low"] <= e_true <= impact["e_ci95_high"], result.impacts
+
+
+def test_a_radius_learnt_too_large_is_learnt_again_from_the_balls_in_flight(capsys):
+    """The green ball's real clip (issue 32): the radius learnt from the frame the hand let the ball go was 46.7 px
+    (a finger's edge with it), the ball then measured 41-44.5 px alone in every flight frame, and each was flagged
+    occluded (5 % short: partly hidden), so no ``ok`` ball could correct the radius: 19 % of the frames clean.
+    Here the radius expected is 9 % too large: once the ball has been measured alone at one smaller size in four
+    frames in a row while in flight, it is ``ok`` again, at its true radius and centre."""
+    rng = np.random.default_rng(7)
+    radius = 12.3
+    frames, truth = clip_frames(rng, radius=radius)
+    table = track_frames(frames, np.arange(len(frames)) / 100.0, expected_radius_px=1.09 * radius)
+    ok = (table["quality"] == QUALITY_OK).to_numpy()
+    report(capsys, f"radius expected 9 % too large: {ok.sum()} of {len(ok)} frames ok, from frame "
+                   f"{np.flatnonzero(ok)[0] if ok.any() else None}")
+    assert ok.sum() >= 12
+    assert ok[-10:].all()
+    errors = centre_errors(table, truth)[ok]
+    assert rms(errors) <= CLEAN_RMS_TOLERANCE_PX
+    assert np.abs(table["radius_px"].to_numpy()[ok] - radius).max() <= RADIUS_TOLERANCE_PX
+
+
+def test_a_ball_streaked_longer_than_predicted_is_measured_as_blurred(tmp_path):
+    """Issue 32: a white table-tennis ball before a dark door, 20 fps, 314 × 486 px, was measured in 46-63 of 104
+    frames and refused. phonesim's clip of that scene, exposed for the whole frame interval (a dim room): the
+    falling ball is a streak longer than the travel the tracker predicts from the hand that held it, or from
+    earlier streaks' centres fitted at one end, and each was flagged occluded (11 frames in a row after the release,
+    centres 13-31 px short), so the prediction never caught up. Measured along its own long axis, the streak is
+    ``blurred`` at its middle: two thirds of the first fall's frames usable within 3 px of the truth (6 of 9; 2
+    before), and e within 0.01 of the truth's (refused before: too few clean frames after impact 2)."""
+    from helpers import phone_clip
+
+    import dropfit
+
+    path, truth = phone_clip("white_pingpong_door", tmp_path, seed=2, downscale=1.0, duration_s=5.2)
+    table = track_video(path)
+    frames = pd.read_csv(path.with_suffix(".frames.csv"))
+    first_touchdown = truth["physics"]["impacts"][0]["t_touchdown_s"]
+    falling = ((frames["phase"] == "flight") & (frames["capture_time_s"] < first_touchdown)).to_numpy()
+    usable = usable_rows(table)
+    error = np.hypot(table["x_px"] - frames["x_px"], table["y_px"] - frames["y_px"]).to_numpy()
+    good = usable & (error <= 3.0)
+    assert good[falling].sum() >= 2 / 3 * falling.sum(), table[falling]
+    physics = truth["physics"]
+    result = dropfit.analyse_recording(path, ball_radius_m=physics["radius_m"], ball_mass_kg=physics["mass_kg"],
+                                       ball_type=physics["ball_model"])
+    true_e = pd.DataFrame(physics["impacts"])
+    measured = result.impacts[np.isfinite(result.impacts["e"])]
+    assert len(measured) >= 2, result.impacts
+    for _, impact in measured.iterrows():
+        e_true = true_e["e"].iloc[int(np.argmin(np.abs(true_e["t_touchdown_s"] - impact["t_touchdown_s"])))]
+        assert abs(impact["e"] - e_true) <= 0.01, result.impacts

@@ -208,10 +208,12 @@ def trajectory_from_video(path, ball_radius_m=None, scale_m_per_px=None, capture
         speed-dependent error ``speed_error_px`` (px at the fastest,
         :func:`dropfit.video.quality.speed_dependent_centre_error_px`).
     """
-    from .video.track import track_video_and_background, usable_rows
+    from .video.track import mark_off_track, track_video_and_background, usable_rows
 
     table, background = track_video_and_background(path, capture_fps=capture_fps) if tracked is None else tracked
     table = table[table["quality"] != "duplicate"]  # a repeated frame carries no new instant
+    # positions the ballistic track does not support are left out (a table tracked elsewhere is judged too)
+    table = mark_off_track(table)
     video_limits.check_recording(table, path)  # refuse below the limits of benchmarks/video_failure_sweep.py
     usable = usable_rows(table)
     if np.count_nonzero(usable) < 10:
@@ -222,7 +224,8 @@ def trajectory_from_video(path, ball_radius_m=None, scale_m_per_px=None, capture
     rows = np.where(usable, table["y_px"].to_numpy(), np.nan)
     radius_px = table["radius_px"].to_numpy()[usable]
     extra = dict(attrs or {})
-    extra.update(video=str(path), frames=int(len(table)), frames_usable=int(np.count_nonzero(usable)))
+    extra.update(video=str(path), frames=int(len(table)), frames_usable=int(np.count_nonzero(usable)),
+                 frames_off_track=int(table.attrs.get("off_track_frames", 0)))
     if not usable.all():
         extra["frames_unclean"] = video_limits.unclean_frames(table)
     # the ruler, the targets (in colour) and the floor are read from the background the ball was tracked against

@@ -112,6 +112,10 @@ STREAK_RADIUS_TOLERANCE = 0.15
 #: the exposure is at most a frame interval.
 MAX_STREAK_TRAVEL_RATIO = 1.3
 
+#: A streak longer than the predicted travel is measured along its own long axis when that axis is within this
+#: angle of the predicted motion (degrees; any, when the prediction moves less than a radius).
+MAX_STREAK_AXIS_ANGLE_DEG = 20.0
+
 #: ... and it is symmetric: its contrast-weighted centroid along the motion is within this fraction of
 #: its length (plus half a pixel) from its middle.
 MAX_STREAK_ASYMMETRY = 0.05
@@ -582,6 +586,18 @@ def measure_ball(grey, background, threshold_grey, centre_guess, radius_ref_px=N
     if radius_ref_px:
         attached |= filled_area > ATTACHED_AREA_FRACTION * math.pi * (radius_ref_px + 1.0) ** 2
     streak = attached and motion_px is not None and _is_streak(filled, diff, radius_ref_px, motion_px)
+    if attached and not streak and radius_ref_px and major > MAX_AXIS_RATIO ** 2 * minor:
+        # a streak longer than the predicted travel: the prediction came from centres of earlier streaks fitted at
+        # one end, or from a hand that held the ball (phonesim's white ball before a dark door, 20 fps, exposed
+        # for the whole frame interval: 11 frames in a row after the release flagged occluded, their centres
+        # 13-31 px short). Along its own long axis, when that is the predicted direction (or none is predicted)
+        axis = 0.5 * math.atan2(2.0 * mu11, mu20 - mu02)
+        direction = (math.cos(axis), math.sin(axis))
+        travel = math.hypot(*motion_px) if motion_px is not None else 0.0
+        aligned = travel < radius_ref_px or abs(direction[0] * motion_px[0] + direction[1] * motion_px[1]) >= (
+            math.cos(math.radians(MAX_STREAK_AXIS_ANGLE_DEG)) * travel)
+        length = 2.0 * math.sqrt(major) * math.sqrt(3.0)  # a stadium's length, generously
+        streak = aligned and _is_streak(filled, diff, radius_ref_px, (direction[0] * length, direction[1] * length))
     attached &= not streak
     if attached or at_image_edge:
         # the largest inscribed circle: the ball, when what is attached is narrower than the ball

@@ -41,8 +41,8 @@ from ..analysis import estimate_noise, se_column_name
 from ..errors import InputError, shown_path
 from ..physics import STANDARD_GRAVITY_M_S2
 from .calibrate import slow_motion_reading
-from .quality import (QUALITY_DUPLICATE, QUALITY_LOST, QUALITY_OCCLUDED, QUALITY_PARTIAL, QUALITY_SHADED,
-                      usable_rows)
+from .quality import (QUALITY_DUPLICATE, QUALITY_LOST, QUALITY_OCCLUDED, QUALITY_OFF_TRACK, QUALITY_PARTIAL,
+                      QUALITY_SHADED, usable_rows)
 
 #: Smallest tracked ball radius, px. Sweep: a ball drawn with radius 1 px is never found and one of
 #: 1.25 px in no clean frame; drawn with 1.5–2 px it is tracked as 2.2–2.3 px (the edge threshold
@@ -280,7 +280,8 @@ def unclean_frames(table):
     for flag, words in ((QUALITY_OCCLUDED, "merged with something (its shadow, a hand) or partly hidden"),
                         (QUALITY_PARTIAL, "cut by the image border"),
                         (QUALITY_SHADED, "merged with its shadow and too blurred to measure on its lit side"),
-                        (QUALITY_LOST, "not found")):
+                        (QUALITY_LOST, "not found"),
+                        (QUALITY_OFF_TRACK, "off the ballistic track through its neighbours (a tracking jump)")):
         count = int((quality == flag).sum())
         if count:
             parts.append(f"{words} in {count / total:.0%} of the frames")

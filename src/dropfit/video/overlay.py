@@ -25,13 +25,13 @@ from ..physics import flight_height
 from .calibrate import keystoned_rows
 from .decode import VideoFile
 from .opencv import cv2
-from .track import (QUALITY_BLURRED, QUALITY_DUPLICATE, QUALITY_LOST, QUALITY_OCCLUDED, QUALITY_OK,
-                    QUALITY_PARTIAL, QUALITY_SHADED, usable_rows)
+from .track import (QUALITY_BLURRED, QUALITY_DUPLICATE, QUALITY_LOST, QUALITY_OCCLUDED, QUALITY_OFF_TRACK,
+                    QUALITY_OK, QUALITY_PARTIAL, QUALITY_SHADED, usable_rows)
 
 #: Colour (blue, green, red) of the circle drawn around the ball, by quality flag; a lost ball has none.
 QUALITY_COLOURS_BGR = {QUALITY_OK: (60, 200, 60), QUALITY_BLURRED: (230, 170, 0), QUALITY_PARTIAL: (0, 150, 255),
                        QUALITY_SHADED: (0, 215, 255), QUALITY_OCCLUDED: (220, 60, 220),
-                       QUALITY_DUPLICATE: (160, 160, 160)}
+                       QUALITY_DUPLICATE: (160, 160, 160), QUALITY_OFF_TRACK: (0, 0, 255)}
 #: Colour of the fitted flights' curve, of the floor line and of the scale bar (blue, green, red).
 CURVE_COLOUR_BGR = (0, 230, 230)
 FLOOR_COLOUR_BGR = (40, 40, 230)

@@ -10,6 +10,8 @@ import math
 
 import numpy as np
 
+from ..numerics import robust_sigma
+
 QUALITY_OK = "ok"
 
 QUALITY_PARTIAL = "partial"
@@ -23,6 +25,10 @@ QUALITY_DUPLICATE = "duplicate"
 QUALITY_BLURRED = "blurred"
 
 QUALITY_SHADED = "shaded"
+
+#: A ball measured alone whose centre the ballistic track through its neighbours does not support (a tracking
+#: jump to a hand, a shadow or a speck beside the ball): left out of every fit (:func:`off_track_rows`).
+QUALITY_OFF_TRACK = "off_track"
 
 #: Frames measured cleanly: a lone ball whose centre is its coverage-weighted centroid.
 CLEAN_QUALITIES = (QUALITY_OK, QUALITY_BLURRED)
@@ -141,3 +147,199 @@ def usable_rows(table, radius_px=None):
                 & (table["fit_rms_px"].to_numpy() <= MAX_PARTIAL_FIT_RMS_PX)
                 & (np.abs(radii - reference) <= MAX_PARTIAL_RADIUS_MISMATCH_PX))
     return np.isin(quality, CLEAN_QUALITIES) | ((quality == QUALITY_PARTIAL) | shaded) & good_fit
+
+
+#: Neighbours of a position on each side that its ballistic track is fitted through (a parabola in time for x and
+#: for y, three parameters each: four points leave one degree of freedom to judge the fit itself).
+TRACK_NEIGHBOURS = 4
+#: The neighbours lie within this many typical frame intervals of the position judged: a parabola extrapolated
+#: farther errs by more than its centres do.
+TRACK_REACH_FRAMES = 8
+#: A position is off its track when it is farther from every valid fit's prediction than this many times the
+#: centre error (per axis, px) ...
+OFF_TRACK_SIGMAS = 6.0
+#: ... and than this many ball radii: a frame taken while the ball is in contact lies a few px off both flights'
+#: parabolas (the ball stops and flattens; at 3 m/s a 4 ms contact is 12 mm), a tracking jump is radii away.
+OFF_TRACK_MIN_RADII = 0.5
+#: A fit judges a position only when its own points lie within this fraction of the tolerance of it: four points
+#: straddling a low bounce (hops of two or three frames at the end of a clip) fit a parabola nearly as well as
+#: a flight and extrapolate off it.
+OWN_FIT_FRACTION = 0.5
+#: Passes of the gate, each without the positions found off track by the last (a wrong position spoils the fits
+#: of its neighbours, which then judge nothing).
+OFF_TRACK_PASSES = 3
+
+
+def _neighbour_sets(order, k):
+    """The neighbour sets of position ``order[k]`` (indices): (before, after, two each side), each None where there
+    are too few."""
+    before, after = order[max(k - TRACK_NEIGHBOURS, 0):k], order[k + 1:k + 1 + TRACK_NEIGHBOURS]
+    centred = np.concatenate([order[max(k - 2, 0):k], order[k + 1:k + 3]])
+    return [s if s.size == TRACK_NEIGHBOURS else None for s in (before, after, centred)]
+
+
+def _free_acceleration(time_s, x_px, y_px, neighbours):
+    """A free parabola in time through ``neighbours``: its acceleration x, y (px/s²), largest residual and the
+    vertical travel over the neighbours (px)."""
+    t = time_s[neighbours] - time_s[neighbours].mean()
+    design = np.stack([np.ones_like(t), t, t * t], axis=1)
+    values = np.stack([x_px[neighbours], y_px[neighbours]], axis=1)
+    coefficients, *_ = np.linalg.lstsq(design, values, rcond=None)
+    residual = float(np.max(np.hypot(*(values - design @ coefficients).T)))
+    return 2.0 * coefficients[2, 0], 2.0 * coefficients[2, 1], residual, float(np.ptp(y_px[neighbours]))
+
+
+def clip_acceleration(free, min_travel_px):
+    """The clip's acceleration in the image (x, y px/s²) from free parabolas (rows: x, y acceleration, largest
+    residual and vertical travel, px): the median of those accelerating downwards that travel at least
+    ``min_travel_px`` (a ball at rest, rolling or held does not) and fit their points at least as well as the median
+    one of those (a set across a bounce turns upwards, or fits its points worse); None without one."""
+    free = np.asarray(free, dtype=float).reshape(-1, 4)
+    falling = free[(free[:, 1] > 0) & (free[:, 3] >= min_travel_px)]
+    if not falling.size:
+        return None
+    tight = falling[falling[:, 2] <= np.median(falling[:, 2])]
+    return np.median(tight[:, :2], axis=0)
+
+
+def _predicted(time_s, x_px, y_px, neighbours, at_s, acceleration):
+    """The ballistic track through ``neighbours`` with the clip's ``acceleration`` (x, y px/s²) at ``at_s``:
+    (predicted x, y px, the fit's largest own residual px)."""
+    t = time_s[neighbours] - at_s
+    design = np.stack([np.ones_like(t), t], axis=1)
+    values = np.stack([x_px[neighbours], y_px[neighbours]], axis=1) - 0.5 * np.outer(t * t, acceleration)
+    coefficients, *_ = np.linalg.lstsq(design, values, rcond=None)
+    residual = float(np.max(np.hypot(*(values - design @ coefficients).T)))
+    return coefficients[0, 0], coefficients[0, 1], residual
+
+
+def _track_predictions(time_s, x_px, y_px, order, reach_s, min_travel_px):
+    """For each position of ``order``: its offsets (dx, dy px) from the predictions of its three neighbour fits
+    (before, after, centred) and each fit's own largest residual (px), NaN where a fit has too few neighbours
+    within ``reach_s`` or its neighbours travel less than ``min_travel_px`` vertically (a ball at rest, rolling or
+    held is not on a ballistic track); arrays (n, 3, 2) and (n, 3). The fits share the clip's acceleration
+    (:func:`clip_acceleration` of the free parabolas through the neighbour sets), so that a fit across a bounce
+    does not fit its own points."""
+    sets = [[neighbours if neighbours is not None and np.max(np.abs(time_s[neighbours] - time_s[index])) <= reach_s
+             else None for neighbours in _neighbour_sets(order, k)] for k, index in enumerate(order)]
+    offsets = np.full((order.size, 3, 2), np.nan)
+    residuals = np.full((order.size, 3), np.nan)
+    free = [_free_acceleration(time_s, x_px, y_px, neighbours)
+            for fits in sets for neighbours in fits if neighbours is not None]
+    acceleration = clip_acceleration(free, min_travel_px)
+    if acceleration is None:
+        return offsets, residuals
+    for k, (index, fits) in enumerate(zip(order, sets)):
+        for j, neighbours in enumerate(fits):
+            if neighbours is not None and np.ptp(y_px[neighbours]) >= min_travel_px:
+                x, y, residuals[k, j] = _predicted(time_s, x_px, y_px, neighbours, time_s[index], acceleration)
+                offsets[k, j] = x_px[index] - x, y_px[index] - y
+    return offsets, residuals
+
+
+def sideways_centre_error_px(x_px, frames):
+    """The centre error of tracked positions, px: from the third differences of their columns ``x_px`` over runs of
+    four evenly spaced ``frames`` (variance 20 σ² where the ball moves sideways at a constant or slowly changing
+    speed: through its bounces too, which turn its vertical motion only); a robust σ, 0 with no such run."""
+    x, frames = np.asarray(x_px, dtype=float), np.asarray(frames)
+    if x.size < 4:
+        return 0.0
+    steps = np.diff(frames)
+    even = (steps[:-2] == steps[1:-1]) & (steps[1:-1] == steps[2:])
+    third = np.diff(x, 3)[even]
+    return robust_sigma(third) / math.sqrt(20.0) if third.size else 0.0
+
+
+def off_track_rows(time_s, x_px, y_px, measured, radius_px):
+    """Positions that the ball's ballistic track through their neighbours does not support.
+
+    For each measured position, ballistic tracks (x and y in time with the clip's constant acceleration, as in
+    flight: the median of free parabolas') are fitted through ``TRACK_NEIGHBOURS`` measured neighbours before it, as
+    many after it, and two on each side, all within ``TRACK_REACH_FRAMES`` typical frame intervals and travelling a ball radius or more vertically. A fit is valid
+    when its own points lie within ``OWN_FIT_FRACTION`` of the tolerance of it: a fit across a bounce, or through another wrong position,
+    judges nothing, nor does a ball at rest, rolling or held. The tolerance is
+    ``OFF_TRACK_SIGMAS`` times the centre error (:func:`sideways_centre_error_px`), at least ``OFF_TRACK_MIN_RADII``
+    radii.
+
+    A position is off track when no valid fit predicts it within the tolerance and either two fits or the centred
+    one are valid (the flight passes by it), or it lies more than twice the tolerance aside (in x) of every valid
+    fit (a bounce turns the ball's vertical motion, hardly its sideways one: a position just after a bounce
+    judged by the flight before it alone is off in y, not in x). Repeated ``OFF_TRACK_PASSES`` times without
+    the positions found off track.
+
+    Parameters
+    ----------
+    time_s : numpy.ndarray
+        The frames' times, s.
+    x_px, y_px : numpy.ndarray
+        Centres, px (NaN where not measured).
+    measured : numpy.ndarray
+        Boolean, the positions to judge (those meant for a trajectory, :func:`usable_rows`).
+    radius_px : float
+        The ball's radius, px.
+
+    Returns
+    -------
+    (numpy.ndarray, float)
+        Boolean mask of the positions off track, and the tolerance of the last pass, px (NaN when nothing could be
+        judged).
+    """
+    time_s, x_px, y_px = (np.asarray(a, dtype=float) for a in (time_s, x_px, y_px))
+    measured = np.asarray(measured, dtype=bool) & np.isfinite(x_px) & np.isfinite(y_px) & np.isfinite(time_s)
+    off = np.zeros(time_s.shape, dtype=bool)
+    steps = np.diff(time_s[np.isfinite(time_s)])
+    interval = float(np.median(steps[steps > 0])) if np.any(steps > 0) else math.nan
+    floor = OFF_TRACK_MIN_RADII * radius_px if math.isfinite(radius_px) else math.nan
+    tolerance = math.nan
+    if not math.isfinite(interval) or not math.isfinite(floor):
+        return off, tolerance
+    for _ in range(OFF_TRACK_PASSES):
+        order = np.flatnonzero(measured & ~off)
+        if order.size <= TRACK_NEIGHBOURS:
+            break
+        offsets, residuals = _track_predictions(time_s, x_px, y_px, order, (TRACK_REACH_FRAMES + 0.5) * interval,
+                                                2.0 * floor)
+        distances = np.hypot(offsets[..., 0], offsets[..., 1])
+        tolerance = max(OFF_TRACK_SIGMAS * sideways_centre_error_px(x_px[order], order), floor)
+        with np.errstate(invalid="ignore"):
+            valid = residuals <= OWN_FIT_FRACTION * tolerance
+            agrees = (valid & (distances <= tolerance)).any(axis=1)
+            passes_by = (valid.sum(axis=1) >= 2) | valid[:, 2]
+            aside = valid.any(axis=1) & np.all(~valid | (np.abs(offsets[..., 0]) > 2.0 * tolerance), axis=1)
+        found = order[~agrees & (passes_by | aside)]
+        if not found.size:
+            break
+        off[found] = True
+    return off, tolerance
+
+
+def mark_off_track(table, radius_px=None):
+    """The tracked table with its positions off the ballistic track (:func:`off_track_rows`) flagged
+    ``off_track``; their centres are kept (the contact sheet draws them), every fit leaves them out.
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        A tracked table (``time_s``, ``x_px``, ``y_px``, ``radius_px``, ``quality`` …).
+    radius_px : float, optional
+        The ball's radius, px; by default the median radius of the usable rows.
+
+    Returns
+    -------
+    pandas.DataFrame
+        A copy (the table itself when nothing is off track); ``attrs["off_track_frames"]`` holds how many were
+        flagged (those flagged before included) and ``attrs["off_track_tolerance_px"]`` the distance beyond
+        which a position was off.
+    """
+    usable = usable_rows(table, radius_px)
+    if radius_px is None:
+        radii = table["radius_px"].to_numpy(float)[usable]
+        radius_px = float(np.median(radii)) if radii.size else math.nan
+    off, tolerance = off_track_rows(table["time_s"].to_numpy(float), table["x_px"].to_numpy(float),
+                                    table["y_px"].to_numpy(float), usable, radius_px)
+    already = int((table["quality"] == QUALITY_OFF_TRACK).sum())
+    if off.any():
+        table = table.copy()
+        table.loc[off, "quality"] = QUALITY_OFF_TRACK
+    table.attrs.update(off_track_frames=already + int(off.sum()), off_track_tolerance_px=tolerance)
+    return table

@@ -59,8 +59,8 @@ from .link import extrapolated, find_flight
 from .opencv import cv2
 # the flags and the centre's correlation, kept importable from here (overlay, tests)
 from .quality import (CLEAN_QUALITIES, MAX_PARTIAL_FIT_RMS_PX, QUALITY_BLURRED, QUALITY_DUPLICATE,  # noqa: F401
-                      QUALITY_LOST, QUALITY_OCCLUDED, QUALITY_OK, QUALITY_PARTIAL, QUALITY_SHADED,
-                      TRACKED_CENTRE_CORRELATION, usable_rows)
+                      QUALITY_LOST, QUALITY_OCCLUDED, QUALITY_OFF_TRACK, QUALITY_OK, QUALITY_PARTIAL, QUALITY_SHADED,
+                      TRACKED_CENTRE_CORRELATION, mark_off_track, usable_rows)
 
 COLUMNS = ["frame", "time_s", "x_px", "y_px", "radius_px", "quality", "centre_se_px", "fit_rms_px", "blur_px"]
 
@@ -107,6 +107,12 @@ SHADED_SIZE_FRACTION = 0.75
 #: A ball with a hand's pixels (:func:`dropfit.video.contrast.hand_pixels`) within this of its edge is
 #: held or touched: flagged occluded, px.
 HAND_TOUCH_PX = 2.0
+#: A ball measured alone, in flight, in this many frames in a row, each flagged occluded for its size alone with
+#: radii within UNDERSIZED_AGREEMENT of their median, is the ball at its true size: the radius learnt before was
+#: too large (:meth:`BallTracker._relearnt_size`). The green ball's real clip: 46.7 px learnt from the frame the
+#: hand let it go, then 41-44.5 px in every flight frame, all flagged occluded (a ball 5 % short is hidden).
+UNDERSIZED_FRAMES = 4
+UNDERSIZED_AGREEMENT = 0.04
 #: Extra margin of the search window, px.
 WINDOW_MARGIN_PX = 6
 #: While the ball stays occluded where it is followed (held in a hand), a lone disc is looked for
@@ -212,6 +218,8 @@ class BallTracker:
         self._previous = None
         self._index = -1
         self._occluded_run = 0  # frames in a row measured occluded where the ball was followed
+        self._undersized = []  # radii of the last lone balls in a row flagged occluded for their size alone, px
+        self._hand_touch = False  # whether the last measurement was flagged occluded for a hand touching it
 
     @property
     def ball_bgr(self):
@@ -286,6 +294,7 @@ class BallTracker:
             reach = result.radius_px + HAND_TOUCH_PX
             if np.any((columns - result.x_px) ** 2 + (rows - result.y_px) ** 2 <= reach * reach):
                 result = replace(result, quality=QUALITY_OCCLUDED)
+                self._hand_touch = True
         return replace(result, x_px=result.x_px + x0, y_px=result.y_px + y0)
 
     def _learn_colour(self, window, result):
@@ -395,6 +404,31 @@ class BallTracker:
         frame, previous = (image.whole() if isinstance(image, LazyFrame) else image for image in (frame, previous))
         return cv2.norm(frame, previous, cv2.NORM_INF) <= threshold
 
+    def _relearnt_size(self, result):
+        """``result``, flagged ``ok`` when it is the ``UNDERSIZED_FRAMES``-th lone ball in a row, in flight, flagged
+        occluded for its size alone with radii within ``UNDERSIZED_AGREEMENT`` of their median: the expected radius
+        was learnt too large (from a ball leaving the hand, with a finger's edge), and no smaller ball could be
+        ``ok`` to correct it. The radii learnt are then those balls'."""
+        reference = self.radius_ref_px
+        lone_and_small = (result.quality == QUALITY_OCCLUDED and not self._hand_touch and not result.truncated
+                          and math.isnan(result.centre_se_px) and reference is not None
+                          and result.radius_px < reference)
+        if not lone_and_small:
+            self._undersized = []
+            return result
+        self._undersized = (self._undersized + [result.radius_px])[-UNDERSIZED_FRAMES:]
+        radii = np.array(self._undersized)
+        median = float(np.median(radii))
+        moving = self._history and math.hypot(result.x_px - self._history[-1][1],
+                                              result.y_px - self._history[-1][2]) >= STILL_RADII * median
+        if (len(radii) < UNDERSIZED_FRAMES or not moving
+                or np.max(np.abs(radii / median - 1.0)) > UNDERSIZED_AGREEMENT):
+            return result
+        self._radii, self._still_radii, self._undersized = list(radii), [], []
+        self._radius_ref = float(np.min(radii))
+        self._radius_spread = robust_sigma(radii, centre=self._radius_ref)
+        return replace(result, quality=QUALITY_OK)
+
     def update(self, frame):
         """Measure the ball in the next frame.
 
@@ -426,6 +460,7 @@ class BallTracker:
             self._gain = frame_gain(frame, scene_colour(self.background))
 
         result = None
+        self._hand_touch = False
         start = self.hints.ball_at_px
         if start is not None and start[0] == self._index:
             result = self._measure_around(frame, start[1:], 2.0 * radius + WINDOW_MARGIN_PX)
@@ -467,6 +502,7 @@ class BallTracker:
             # ball (seed 3, half size), and with it the tracker followed a round shadow at the floor for 6 frames
             if len(self._recent_history()) >= 1 and self._recent_step_px() <= STILL_RADII * result.radius_px:
                 self._shaded_radii.append(result.radius_px)
+        result = self._relearnt_size(result)
         self._history = (self._history + [(self._index, result.x_px, result.y_px)])[-3:]
         if result.quality == QUALITY_OK:
             self._radii = (self._radii + [result.radius_px])[-15:]
@@ -792,9 +828,11 @@ def _table(rows, times_s):
     quality[repeats] = QUALITY_DUPLICATE
     for column in (x, y, r, centre_se, fit_rms, blur):
         column[repeats] = np.nan
-    return pd.DataFrame({"frame": np.arange(len(rows)), "time_s": np.asarray(times_s, float), "x_px": x, "y_px": y,
-                         "radius_px": r, "quality": list(quality), "centre_se_px": centre_se, "fit_rms_px": fit_rms,
-                         "blur_px": blur}, columns=COLUMNS)
+    table = pd.DataFrame({"frame": np.arange(len(rows)), "time_s": np.asarray(times_s, float), "x_px": x, "y_px": y,
+                          "radius_px": r, "quality": list(quality), "centre_se_px": centre_se, "fit_rms_px": fit_rms,
+                          "blur_px": blur}, columns=COLUMNS)
+    # positions the ballistic track does not support (a jump to something beside the ball) are left out
+    return mark_off_track(table)
 
 
 def track_frames(frames, times_s, expected_radius_px=None, *, background=None, source="frames", hints=None):
