@@ -284,6 +284,8 @@ def flight_acceleration_estimate(t, y, dips, fall_end):
     if not pieces:
         start = max(0, fall_end - 4 * MIN_SAMPLES_PER_FLIGHT)
         pieces = [(t[start:fall_end], y[start:fall_end])]
+        if fall_end - start < 3:  # the log starts at its first dip: no curvature to measure
+            return math.nan
     # the median of the flights' own curvatures: a hand that catches the ball at the end does not count
     return float(np.median([shared_acceleration([piece])[0] for piece in pieces]))
 
