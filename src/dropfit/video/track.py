@@ -767,8 +767,8 @@ class _FlightRescue:
     A poor track on a clip that starts with hands in view has often followed a hand or a speck. The
     largest ballistic flight of round blobs (:func:`dropfit.video.link.find_flight` in each contrast
     channel, the largest by :func:`flight_size`; searched once per clip) is the ball: it is tracked
-    afresh forwards from the flight's first frame, as from a user's ``--ball-at-px`` with the flight's
-    radius as the expected one (unless one was given), and backwards from there to the clip's start.
+    afresh forwards from the flight's first frame, as from a user's ``--ball-at-px``, and backwards
+    from there to the clip's start.
 
     Parameters
     ----------
@@ -805,11 +805,8 @@ class _FlightRescue:
             return None
         start, x, y = flight.start()
         from_flight = self.hints._replace(ball_at_px=(0, x, y))
-        # the flight's blobs give the ball's size where none was given: a search that starts without one takes the
-        # largest lone blob, a speck beside a held ball, and then looks only for blobs of the speck's size
-        radius = self.expected_radius_px or flight.radius_px
-        ahead = _run(self.frames[start:], self.background, radius, contrast, from_flight)
-        behind = _run(self.frames[start::-1], self.background, radius, contrast, from_flight)
+        ahead = _run(self.frames[start:], self.background, self.expected_radius_px, contrast, from_flight)
+        behind = _run(self.frames[start::-1], self.background, self.expected_radius_px, contrast, from_flight)
         rescued = _rows_before(behind, start) + ahead
         return rescued if _usable_and_found(rescued)[0] > _usable_and_found(rows)[0] else None
 
