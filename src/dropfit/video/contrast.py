@@ -108,7 +108,8 @@ class Contrast:
         the ball (see :func:`dropfit.video.track.scene_and_contrasts`).
     ball_radius_px : float or None
         The radius of the lone discs this channel shows in most of the clip's samples, px (coarse), None where
-        it shows none: what the tracker's first search looks for (see :func:`dropfit.video.track.scene_and_contrasts`).
+        it shows none or only specks (SPECK_MAX_RADIUS_PX): what the tracker's first search looks for (see
+        :func:`dropfit.video.track.scene_and_contrasts`).
     """
 
     name: str

@@ -159,8 +159,12 @@ FIXTURE_FRACTION = 0.7
 #: searches get no expected size. The green ball's real clip (1920 × 1080 px): grey levels merge the ball with its
 #: shadow in every sample and show lone codec specks of 2-6 px in most of them; chroma shows the ball alone, 44-47 px
 #: across, in four. Grey ranked first, its first search took a speck, learnt its size and never looked for the ball.
+#: and below SPECK_MAX_RADIUS_PX. A channel's sample radius is what its searches look for only above it: the white
+#: ping-pong clip's samples show 4-6 px specks in every channel, and a search for them missed the 27 px ball (68 ok
+#: frames fell to 8).
 SPECK_RADIUS_FRACTION = 0.25
 MIN_SIZED_SAMPLES = 3
+SPECK_MAX_RADIUS_PX = 8.0
 
 
 class TrackerHints(NamedTuple):
@@ -599,10 +603,11 @@ def _rank(samples, background, expected_radius_px):
             score = int(lone_and_consistent.sum())
             radius = float(np.median(radii[lone_and_consistent])) if score else math.nan
         scored[name] = [score, order, radius, replace(contrast, fixtures=fixtures,
-                                                      ball_radius_px=radius if score else None)]
+                                                      ball_radius_px=radius if radius > SPECK_MAX_RADIUS_PX else None)]
     # a channel whose lone discs are specks beside another's ball-sized ones shows codec noise, not the ball
     largest = max((item[2] for item in scored.values() if item[0] >= MIN_SIZED_SAMPLES), default=math.nan)
-    specks = [name for name, item in scored.items() if item[0] and item[2] < SPECK_RADIUS_FRACTION * largest]
+    specks = [name for name, item in scored.items()
+              if item[0] and item[2] < min(SPECK_RADIUS_FRACTION * largest, SPECK_MAX_RADIUS_PX)]
     if GREY in scored:
         grey = scored[GREY]
         chroma = scored.get(CHROMA)
