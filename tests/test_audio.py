@@ -586,3 +586,20 @@ def test_a_release_time_that_cannot_be_is_one_line(tmp_path, truth):
         analyse_recording(log, release_time_s=0.1)
     wrong = dropfit("measure", path, "--out", tmp_path / "t.nc", "--kind", "video", cwd=tmp_path)
     assert wrong.returncode == 1 and "is given as kind video but reads as audio" in wrong.stderr
+
+
+def test_a_digitally_silent_track_is_refused_as_silence(tmp_path):
+    """A sound track whose every sample is 0 (red_ball_portrait.mp4: identical silent AAC blocks, recorded muted or
+    without a microphone) is refused as silence, not as a recording in which no impact rose above the noise."""
+    path = tmp_path / "muted.wav"
+    soundfile.write(path, np.zeros((48000 * 2, 2)), 48000)
+    with pytest.raises(InputError, match="digital silence") as error:
+        read_sound(path)
+    assert "\n" not in str(error.value)
+
+
+def test_the_red_balls_sound_track_is_silence():
+    """red_ball_portrait.mp4's AAC track decodes to 0 in every sample: nothing to hear."""
+    clip = real_recording("phone-clips", "red_ball_portrait.mp4")
+    with pytest.raises(InputError, match="digital silence"):
+        read_sound(clip)

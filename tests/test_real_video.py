@@ -88,12 +88,14 @@ def test_white_pingpong_ball_before_a_light_wall_is_tracked_in_its_flights():
 
 
 @pytest.mark.slow
-def test_tennis_ball_on_a_table_gives_its_first_impact_and_why_not_its_second():
-    """tennis_ball_table_aruco.mp4 (1080 x 1080, 30 fps): the ball is tracked in every frame after the hand lets it
-    go but three as the hand leaves (the hand's pieces measured there are not usable), bounces at frames 35-37 and
-    86-90, and the clip ends 2 frames after the apex that follows the second bounce: that bounce has no descent
-    after it, so it gives no e (what a person sees on the contact sheet). The first gives e in the README's range
-    (0.5-0.85)."""
+def test_tennis_ball_on_a_table_gives_both_impacts():
+    """tennis_ball_table_aruco.mp4 (1080 x 1080, 120 fps stored at 30): the ball is tracked in every frame after the
+    hand lets it go but three as the hand leaves (the hand's pieces measured there are not usable), bounces at
+    frames 35-37 and 86-90, and the clip ends 2 frames after the apex that follows the second bounce. Frame 92
+    repeats frame 91 and the frames after it are stamped one interval late (the ball rises 21 px from 91 to 93, as
+    in one interval): kept at their stamps, the flight after impact 2 fitted 19 px off and the sequence was cut
+    before it. Its rise to the apex gives v_out: both impacts have e in the README's range (0.5-0.85; measured
+    0.750 and 0.748 ± 0.003)."""
     clip = real_recording("phone-clips", "tennis_ball_table_aruco.mp4")
     table = track_video(clip)
     usable = usable_rows(table)
@@ -105,5 +107,6 @@ def test_tennis_ball_on_a_table_gives_its_first_impact_and_why_not_its_second():
     apex = int(np.nanargmin(y[95:])) + 95
     assert len(table) - 1 - apex <= 3, (apex, len(table))
     result = dropfit.analyse_recording(clip, ball_type="tennis", ball_radius_m=0.0335, ball_mass_kg=0.057)
-    first = result.impacts.iloc[0]
-    assert 0.5 <= first["e"] <= 0.85, result.impacts
+    measured = result.impacts[result.impacts["in_fit"]]
+    assert len(measured) >= 2, result.impacts
+    assert measured["e"].between(0.5, 0.85).all(), result.impacts

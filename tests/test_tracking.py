@@ -498,8 +498,9 @@ def test_positions_off_the_ballistic_track_are_left_out_and_counted(tmp_path):
     assert result.trajectory.attrs["frames_off_track"] == 6
     assert any("off the ballistic track" in note for note in result.notes), result.notes
     true_e = pd.DataFrame(physics["impacts"])
-    assert len(result.impacts) >= 2, result.impacts
-    for _, impact in result.impacts.iterrows():
+    measured = result.impacts[np.isfinite(result.impacts["e"])]  # (an impact whose flight is too short: no e)
+    assert len(measured) >= 2, result.impacts
+    for _, impact in measured.iterrows():
         e_true = true_e["e"].iloc[int(np.argmin(np.abs(true_e["t_touchdown_s"] - impact["t_touchdown_s"])))]
         assert abs(impact["e"] - e_true) <= 0.005, result.impacts
         assert impact["e_ci95_low"] <= e_true <= impact["e_ci95_high"], result.impacts

@@ -481,7 +481,7 @@ def measure_sound_and_picture(path, ball=None, settings=None, *, sample_id=None,
         When neither the picture nor the sound gives an e: the picture's refusal, with the sound's reason.
     """
     from .audio import fuse
-    from .audio.compare import pair_impacts
+    from .audio.compare import clicks_offset, pair_impacts
     from .audio.decode import read_sound
     from .errors import one_line
 
@@ -561,6 +561,13 @@ def measure_sound_and_picture(path, ball=None, settings=None, *, sample_id=None,
             notes.append("the offset is that of one impact paired: not checked by a second")
         # (the picture's release is not given to the sound: its first e would share the picture's error of the
         # release, not independent of the picture's first e, and the release's error is not carried)
+    if seen_index.size < fuse.MIN_PAIRS and "candidate_time_s" in heard.trajectory:
+        paired, between = clicks_offset(seen["t_touchdown_s"].to_numpy(), heard.trajectory["candidate_time_s"].values)
+        if paired >= fuse.MIN_PAIRS:
+            notes.append(f"the clocks are {between:+.3f} s apart (sound − picture): {paired} of the "
+                         f"{len(seen)} impacts seen pair with clicks heard at that offset, but the sound's chain "
+                         f"of bounces holds {seen_index.size} of them (it took other clicks, a rattle or echoes, "
+                         f"for bounces, or a missed click broke it)")
     try:
         fusion = fuse.fuse(seen, picture.analysis.e_covariance, picture.fit, heard.impacts,
                            heard.analysis.e_covariance, heard.fit, seen_index, heard_index, offset, notes)

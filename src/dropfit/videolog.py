@@ -208,10 +208,13 @@ def trajectory_from_video(path, ball_radius_m=None, scale_m_per_px=None, capture
         speed-dependent error ``speed_error_px`` (px at the fastest,
         :func:`dropfit.video.quality.speed_dependent_centre_error_px`).
     """
+    from .video.quality import retime_inserted_repeats
     from .video.track import mark_off_track, track_video_and_background, usable_rows
 
     table, background = track_video_and_background(path, capture_fps=capture_fps) if tracked is None else tracked
-    table = table[table["quality"] != "duplicate"]  # a repeated frame carries no new instant
+    # a repeated frame carries no new instant; the frames after one a recorder inserted are late by an interval
+    table = retime_inserted_repeats(table)
+    inserted = table.attrs.pop("inserted_repeats", [])
     # positions the ballistic track does not support are left out (a table tracked elsewhere is judged too)
     table = mark_off_track(table)
     video_limits.check_recording(table, path)  # refuse below the limits of benchmarks/video_failure_sweep.py
@@ -226,6 +229,11 @@ def trajectory_from_video(path, ball_radius_m=None, scale_m_per_px=None, capture
     extra = dict(attrs or {})
     extra.update(video=str(path), frames=int(len(table)), frames_usable=int(np.count_nonzero(usable)),
                  frames_off_track=int(table.attrs.get("off_track_frames", 0)))
+    if inserted:
+        extra["repeat_note"] = (f"frame{'s' if len(inserted) > 1 else ''} {', '.join(map(str, inserted))} repeat"
+                                f"{'' if len(inserted) > 1 else 's'} the frame before and the ball's motion shows the "
+                                f"frames after {'them' if len(inserted) > 1 else 'it'} stamped one interval late: "
+                                f"their times are moved back")
     if not usable.all():
         extra["frames_unclean"] = video_limits.unclean_frames(table)
     # the ruler, the targets (in colour) and the floor are read from the background the ball was tracked against

@@ -28,7 +28,7 @@ from ..numerics import robust_sigma
 from ..physics import STANDARD_GRAVITY_M_S2, flight_height, time_from_apex
 from .flights import (MIN_SAMPLES_PER_FLIGHT, FlightModel, bic, combine_with_prior, first_misfit_flight, first_spurious_impact,
                       fit_flights, parabola_start)
-from .detection import detection_reasons, flights_out_of_sequence
+from .detection import detection_reasons
 from .impacts import (IMPACT_COLUMNS, ImpactQuantities, contact_resolvable, quantity_index, rest_time,
                       unpack_quantities)
 from .segmentation import (CONTACT_CLEARANCE_S, IMPACT_DEPTH_IN_NOISE, RELEASE_SIGMAS, check_free_fall, flight_bounds,
@@ -714,18 +714,21 @@ def refine(problem, bounds, with_drag, theta0, fixed_k=0.0):
 _TIME_COLUMNS = ("t_start_s", "t_end_s", "t_apex_s", "t_touchdown_s", "t_liftoff_s")
 
 
-def impact_notes(e, flight_after_s=None, flight_after_se_s=None):
+def impact_notes(e, flight_after_s=None):
     """Whether each impact enters the fits of e (``in_fit``), where not why (``note``), and whether it is a
-    detection error (:func:`dropfit.analysis.detection.detection_reasons`: e > 1, the flight after it
-    outlasting the one before, or a flight beside it out of the sequence of the others); ``flight_after_s``
-    is each impact's flight after it, s (NaN after the last), ``flight_after_se_s`` their standard errors."""
+    detection error (:func:`dropfit.analysis.detection.detection_reasons`: e > 1, or the flight after it
+    outlasting the one before); ``flight_after_s`` is each impact's flight after it, s (NaN after the last).
+
+    The flights of a log or a video are fitted parabolas, each e measured from its own two flights: a ball
+    whose e changes fast with speed (a marble on paper: 0.53, 0.69, 0.76) is not out of its sequence, so
+    the sequence test of impact times (:func:`dropfit.analysis.detection.flights_out_of_sequence`, for a
+    missed or spurious click) is not applied here."""
     e = np.asarray(e, float)
     if flight_after_s is None:
         reasons = detection_reasons(e)
     else:
         after = np.asarray(flight_after_s, float)
-        out = flights_out_of_sequence(after, flight_after_se_s)
-        reasons = detection_reasons(e, np.r_[np.nan, after[:-1]], after, np.r_[False, out[:-1]], out)
+        reasons = detection_reasons(e, np.r_[np.nan, after[:-1]], after)
     detected = reasons != ""
     return np.isfinite(e) & ~detected, np.where(detected, reasons, ""), detected
 
@@ -787,7 +790,7 @@ def _assemble(fit, bics, problem, origin, source, uncertainty, data, notes, ball
     impacts["n_samples_before"] = counts[:-1]
     impacts["n_samples_after"] = counts[1:]
     impacts["in_fit"], impacts["note"], impacts["detection_error"] = impact_notes(
-        values["e"], values["flight_time_after_s"], errors["flight_time_after_s"])
+        values["e"], values["flight_time_after_s"])
     for table in (flights, impacts):
         for name in _TIME_COLUMNS:
             for column in (name, se_column_name(name, "ci95_low"), se_column_name(name, "ci95_high")):

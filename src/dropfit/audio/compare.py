@@ -53,6 +53,29 @@ def pair_impacts(video_s, sound_s, tolerance_s=PAIR_TOLERANCE_S, max_offset_s=MA
     return best
 
 
+def clicks_offset(video_s, clicks_s, tolerance_s=PAIR_TOLERANCE_S, max_offset_s=MAX_OFFSET_S):
+    """The offset (sound − video, s) at which the impacts seen pair with the clicks heard, every click
+    found (not only the chain chosen as bounces), and how many pair (:func:`pair_impacts`).
+
+    Where the sound's chain of bounces pairs fewer than two impacts seen, the clicks can still show the
+    clocks' offset: a chain that took a rattle or an echo for a bounce, or that a missed click broke,
+    leaves the true impacts among its candidates.
+
+    Returns
+    -------
+    (int, float)
+        Pairs found and the median of their differences (s; NaN when none pair).
+    """
+    video_s, clicks_s = np.asarray(video_s, float), np.asarray(clicks_s, float)
+    video_s, clicks_s = video_s[np.isfinite(video_s)], np.sort(clicks_s[np.isfinite(clicks_s)])
+    if not video_s.size or not clicks_s.size:
+        return 0, float("nan")
+    seen, heard = pair_impacts(video_s, clicks_s, tolerance_s, max_offset_s)
+    if not seen.size:
+        return 0, float("nan")
+    return int(seen.size), float(np.median(clicks_s[heard] - video_s[seen]))
+
+
 def compare_sound_and_video(path, ball=None, settings=None, sample_id=None):
     """Impacts from the sound and from the tracked flights of one video, compared.
 

@@ -89,6 +89,11 @@ def read_sound(path):
                          f"record the whole drop")
     if not np.all(np.isfinite(sound.samples)):
         raise InputError(f"{name}: the sound holds samples that are not numbers (NaN or infinite); export it again")
+    if not np.any(sound.samples):
+        # red_ball_portrait.mp4: an AAC track of identical silent blocks, every sample 0 (no microphone, or muted)
+        raise InputError(f"{name}: the sound track is digital silence (every sample is 0 over {sound.duration_s:.3g} s: "
+                         f"recorded muted or without a microphone): no impact can be heard; record with the "
+                         f"microphone on, or measure the picture alone")
     return sound
 
 

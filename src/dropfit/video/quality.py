@@ -343,3 +343,88 @@ def mark_off_track(table, radius_px=None):
         table.loc[off, "quality"] = QUALITY_OFF_TRACK
     table.attrs.update(off_track_frames=already + int(off.sum()), off_track_tolerance_px=tolerance)
     return table
+
+
+#: Measured frames on each side of a repeated frame that decide whether the frames after it are late
+#: (:func:`retime_inserted_repeats`).
+REPEAT_WINDOW_FRAMES = 4
+#: ... the frames after it are late when the parabola through the neighbours with them shifted fits this many
+#: times better (sum of squared residuals) than with their time stamps kept (the tennis clip: 7.1, its frame 93 blurred
+#: over 67 px and 4 px off), and the step across the repeat
+#: differs from the two timings' by more than this many px (a ball at rest, or at its apex, tells nothing).
+REPEAT_SHIFT_FIT_RATIO = 4.0
+REPEAT_SHIFT_MIN_PX = 3.0
+#: Residual floor of those fits (px per sample): a tracked centre's scatter.
+REPEAT_FIT_FLOOR_PX = 0.5
+
+
+def retime_inserted_repeats(table):
+    """The tracked table without its repeated frames, and the frames after a repeat that a recorder *inserted*
+    moved back to their capture instants.
+
+    A recorder that fills a nominal rate repeats a frame in one of two ways: in place of a capture it missed (the
+    frames after it keep their time stamps), or inserted between two successive captures (a slow-motion phone
+    clip: every frame after it is stamped one interval late). The ball's motion tells them apart: a parabola
+    through :data:`REPEAT_WINDOW_FRAMES` measured frames on each side fits the two timings differently
+    (tennis_ball_table_aruco.mp4, 120 fps stored at 30: its frame 92 repeats 91, the ball rises 21 px from 91 to 93
+    as it does in one interval, not 44 px as in two; kept, the flight after impact 2 fits 19 px off and the
+    sequence was cut before it).
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        A tracked table (``time_s``, ``y_px``, ``x_px``, ``quality``), frames in order.
+
+    Returns
+    -------
+    pandas.DataFrame
+        The rows that are not ``duplicate``, with ``time_s`` moved back where the frames after a repeat are late;
+        ``attrs["inserted_repeats"]`` lists the repeated frames found inserted (their ``frame`` or row number).
+    """
+    duplicate = (table["quality"] == QUALITY_DUPLICATE).to_numpy()
+    kept = table[~duplicate].copy()
+    kept.attrs = dict(table.attrs)
+    time = table["time_s"].to_numpy(dtype=float).copy()
+    if not duplicate.any() or time.size < 3:
+        return kept
+    interval = float(np.median(np.diff(time)))
+    measured = np.isin(table["quality"].to_numpy(), CLEAN_QUALITIES) & np.isfinite(table["y_px"].to_numpy(float))
+    y = table["y_px"].to_numpy(dtype=float)
+    frames = table["frame"].to_numpy() if "frame" in table else np.arange(time.size)
+    inserted = []
+    index = 0
+    while index < time.size:
+        if not duplicate[index]:
+            index += 1
+            continue
+        end = index
+        while end + 1 < time.size and duplicate[end + 1]:
+            end += 1
+        run = end - index + 1
+        # unbroken runs of measured frames on each side: a gap may hold an impact
+        before = np.arange(index - 1, max(index - 1 - REPEAT_WINDOW_FRAMES, -1), -1)
+        before = before[:np.argmin(measured[before])] if not measured[before].all() else before
+        after = np.arange(end + 1, min(end + 1 + REPEAT_WINDOW_FRAMES, time.size))
+        after = after[:np.argmin(measured[after])] if not measured[after].all() else after
+        before = before[::-1]
+        if before.size >= 2 and after.size >= 2 and before.size + after.size >= 5:
+            sides = np.r_[before, after]
+            fits = []
+            for shift in (0.0, run * interval):
+                t = time[sides] - np.where(sides > end, shift, 0.0)
+                t = t - t.mean()
+                coefficients = np.polyfit(t, y[sides], 2)
+                fits.append((float(np.sum((np.polyval(coefficients, t) - y[sides]) ** 2)), coefficients))
+            (kept_rss, kept_fit), (shifted_rss, shifted_fit) = fits
+            floor = sides.size * REPEAT_FIT_FLOOR_PX ** 2
+            # the step across the repeat as each timing has it (px): they must differ for the motion to tell
+            t_after = time[end + 1] - time[sides].mean()
+            differ = abs(np.polyval(shifted_fit, t_after - run * interval) - np.polyval(shifted_fit, t_after))
+            if kept_rss > REPEAT_SHIFT_FIT_RATIO * max(shifted_rss, floor) and differ > REPEAT_SHIFT_MIN_PX:
+                time[end + 1:] -= run * interval
+                inserted.append(int(frames[index]))
+        index = end + 1
+    if inserted:
+        kept["time_s"] = time[~duplicate]
+        kept.attrs["inserted_repeats"] = inserted
+    return kept
