@@ -1,5 +1,6 @@
 """Ball tracker against frames rendered here with known sub-pixel centres (seeded)."""
 
+import math
 import time
 
 import cv2
@@ -555,3 +556,32 @@ def test_a_ball_streaked_longer_than_predicted_is_measured_as_blurred(tmp_path):
     for _, impact in measured.iterrows():
         e_true = true_e["e"].iloc[int(np.argmin(np.abs(true_e["t_touchdown_s"] - impact["t_touchdown_s"])))]
         assert abs(impact["e"] - e_true) <= 0.01, result.impacts
+
+
+def _speck_scene():
+    """A grey scene (400 × 300 px) with a dark ball (radius 20 px) held by a dark hand reaching in from the top, and
+    a lone codec speck (radius 3 px) elsewhere: the ball is merged with the hand, the speck is a lone disc."""
+    import cv2
+
+    background = np.full((300, 400), 200, np.uint8)
+    frame = background.copy()
+    cv2.circle(frame, (120, 80), 20, 60, -1)
+    cv2.rectangle(frame, (112, 0), (128, 70), 60, -1)  # the hand's finger, narrower than the ball
+    cv2.circle(frame, (320, 220), 3, 60, -1)
+    return background, frame
+
+
+def test_a_search_with_the_channels_ball_size_does_not_take_a_speck():
+    """Issue 32, the speck trap (green ball's real clip: 5.7 px learnt from a codec speck, the 44 px ball merged
+    with the hand never looked for again): with the channel's ball size from the clip's samples, the first search
+    takes the held ball (occluded, radius about 20 px), not the lone 3 px speck."""
+    from dataclasses import replace
+
+    from dropfit.video.background import estimate_background
+    from dropfit.video.contrast import GREY, contrast_of
+
+    background_image, frame = _speck_scene()
+    background = estimate_background([background_image] * 3)
+    contrast = replace(contrast_of(GREY, (), background), ball_radius_px=20.0)
+    x, y, radius, quality, *_ = BallTracker(background, contrast=contrast).update(frame)
+    assert math.hypot(x - 120, y - 80) < 5 and 15 < radius < 25, (x, y, radius, quality)

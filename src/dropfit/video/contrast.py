@@ -106,12 +106,17 @@ class Contrast:
     fixtures : tuple of (float, float, float)
         Blobs that stay in one place in this channel through the clip, x, y and radius in px: not
         the ball (see :func:`dropfit.video.track.scene_and_contrasts`).
+    ball_radius_px : float or None
+        The radius of the lone discs this channel shows in most of the clip's samples, px (coarse), None where
+        it shows none or only specks (SPECK_MAX_RADIUS_PX): what the tracker's first search looks for (see
+        :func:`dropfit.video.track.scene_and_contrasts`).
     """
 
     name: str
     noise: float
     threshold: float
     fixtures: tuple = ()
+    ball_radius_px: float | None = None
 
     @property
     def in_colour(self):

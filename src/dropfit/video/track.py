@@ -154,6 +154,17 @@ ENOUGH_USABLE_FRACTION = 0.5
 #: background itself).
 FIXTURE_TOLERANCE_PX = 2.0
 FIXTURE_FRACTION = 0.7
+#: A channel whose lone discs in the samples have a median radius below this fraction of another channel's (one
+#: that shows them in MIN_SIZED_SAMPLES samples or more) shows specks, not the ball: it scores nothing, and its
+#: searches get no expected size. The green ball's real clip (1920 × 1080 px): grey levels merge the ball with its
+#: shadow in every sample and show lone codec specks of 2-6 px in most of them; chroma shows the ball alone, 44-47 px
+#: across, in four. Grey ranked first, its first search took a speck, learnt its size and never looked for the ball.
+#: and below SPECK_MAX_RADIUS_PX. A channel's sample radius is what its searches look for only above it: the white
+#: ping-pong clip's samples show 4-6 px specks in every channel, and a search for them missed the 27 px ball (68 ok
+#: frames fell to 8).
+SPECK_RADIUS_FRACTION = 0.25
+MIN_SIZED_SAMPLES = 3
+SPECK_MAX_RADIUS_PX = 8.0
 
 
 class TrackerHints(NamedTuple):
@@ -247,6 +258,15 @@ class BallTracker:
             return None
         return float(np.percentile(self._shaded_radii, 75))
 
+    @property
+    def _search_radius_px(self):
+        """The radius a whole-frame search looks for, px: the expected one, else the radius of the lone discs of
+        the clip's samples in this channel (``Contrast.ball_radius_px``), until a ball was measured ``ok``. A
+        search without one takes the largest lone blob, a speck of the codec beside a ball merged with the hand
+        that holds it, and then looks only for blobs of the speck's size."""
+        reference = self.radius_ref_px
+        return reference if reference is not None else self.contrast.ball_radius_px
+
     def _recent_history(self):
         """(frame index, x, y) of the last found balls, of the last ``HISTORY_FRAMES`` frames."""
         return [h for h in self._history if self._index - h[0] <= HISTORY_FRAMES]
@@ -331,7 +351,7 @@ class BallTracker:
             background = self.background.cropped(left, top, right, bottom)
         region = frame[top:bottom, left:right]
         fixtures = [(x - left, y - top, r) for x, y, r in self.contrast.fixtures]
-        found = find_ball(region, background, self.contrast, self.radius_ref_px, self._gain, fixtures,
+        found = find_ball(region, background, self.contrast, self._search_radius_px, self._gain, fixtures,
                           self.hints.ball_colour_bgr)
         if found is None:
             return None
@@ -582,13 +602,20 @@ def _rank(samples, background, expected_radius_px):
                 [blob[3] for blob in best])
             score = int(lone_and_consistent.sum())
             radius = float(np.median(radii[lone_and_consistent])) if score else math.nan
-        scored[name] = [score, order, radius, replace(contrast, fixtures=fixtures)]
+        scored[name] = [score, order, radius, replace(contrast, fixtures=fixtures,
+                                                      ball_radius_px=radius if radius > SPECK_MAX_RADIUS_PX else None)]
+    # a channel whose lone discs are specks beside another's ball-sized ones shows codec noise, not the ball
+    largest = max((item[2] for item in scored.values() if item[0] >= MIN_SIZED_SAMPLES), default=math.nan)
+    specks = [name for name, item in scored.items()
+              if item[0] and item[2] < min(SPECK_RADIUS_FRACTION * largest, SPECK_MAX_RADIUS_PX)]
     if GREY in scored:
         grey = scored[GREY]
         chroma = scored.get(CHROMA)
         # a shadow or a hand merged with the ball makes it larger in grey than in colour
         inflated = chroma is not None and chroma[0] >= len(samples) / 2 and grey[2] > RANK_INFLATED_RADIUS * chroma[2]
         grey[0] += -RANK_GREY_MARGIN if inflated else RANK_GREY_MARGIN
+    for name in specks:
+        scored[name][0], scored[name][3] = 0, replace(scored[name][3], ball_radius_px=None)
     return [item[3] for item in sorted(scored.values(), key=lambda item: (-item[0], item[1]))]
 
 
@@ -730,12 +757,21 @@ def _rows_before(rows_back, count):
     return rows[:count]
 
 
+#: A flight is judged by the ball's area (its median radius squared, px²) times the frames it spans: the ball is the
+#: largest coherent moving blob. The green ball's real clip (1920 × 1080 px): codec specks along the floor and at a
+#: hand's fringe chain into a 13-frame "flight" of 5.7 px blobs in grey levels, the ball into one of 11 frames at
+#: 44 px in chroma; taking the first channel's flight followed the specks.
+def flight_size(flight):
+    """A flight's size: its radius squared (px²) times the frames it spans."""
+    return flight.radius_px ** 2 * (int(flight.frames[-1]) - int(flight.frames[0]) + 1)
+
+
 class _FlightRescue:
     """Rows tracked again from the ball's flight, for a channel whose rows followed something else.
 
-    A poor track on a clip that starts with hands in view has often followed a hand. The longest
-    ballistic flight of round blobs (:func:`dropfit.video.link.find_flight`, in the contrast channels
-    in their order, the first that shows one; searched once per clip) is the ball: it is tracked
+    A poor track on a clip that starts with hands in view has often followed a hand or a speck. The
+    largest ballistic flight of round blobs (:func:`dropfit.video.link.find_flight` in each contrast
+    channel, the largest by :func:`flight_size`; searched once per clip) is the ball: it is tracked
     afresh forwards from the flight's first frame, as from a user's ``--ball-at-px``, and backwards
     from there to the clip's start.
 
@@ -758,22 +794,21 @@ class _FlightRescue:
         self.expected_radius_px, self.hints = expected_radius_px, hints
         self._searched, self._start = False, None
 
-    def _flight_start(self):
-        """(frame, x px, y px) where the longest flight starts, or None."""
+    def _flight(self):
+        """The largest flight of all channels (:func:`flight_size`), or None."""
         if not self._searched:
             self._searched = True
-            for contrast in self.contrasts:
-                flight = find_flight(self.frames, self.background, contrast)
-                if flight is not None:
-                    self._start = flight.start()
-                    break
+            flights = [flight for flight in (find_flight(self.frames, self.background, contrast)
+                                             for contrast in self.contrasts) if flight is not None]
+            self._start = max(flights, key=flight_size) if flights else None
         return self._start
 
     def __call__(self, rows, contrast):
         """Rows of ``contrast`` tracked from the flight when more of them are usable than of ``rows``; else None."""
-        if self.hints.ball_at_px is not None or self._flight_start() is None:
+        flight = self._flight()
+        if self.hints.ball_at_px is not None or flight is None:
             return None
-        start, x, y = self._flight_start()
+        start, x, y = flight.start()
         from_flight = self.hints._replace(ball_at_px=(0, x, y))
         ahead = _run(self.frames[start:], self.background, self.expected_radius_px, contrast, from_flight)
         behind = _run(self.frames[start::-1], self.background, self.expected_radius_px, contrast, from_flight)
