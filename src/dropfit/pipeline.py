@@ -428,6 +428,11 @@ def process_recording(recording, ball=None, settings=None, *, sample_id=None, tr
         trajectory = measure_recording(recording, ball, settings, sample_id=sample_id, tracked=tracked)
     else:
         raise TypeError(f"a recording is a path or a trajectory (xarray.Dataset), not {type(recording).__name__}")
+    return _result_of(trajectory, settings, ball)
+
+
+def _result_of(trajectory, settings, ball):
+    """A measured trajectory analysed and fitted: the recording's result."""
     analysis = analyse_trajectory(trajectory, settings)
     fit = fit_analysis(analysis, trajectory.attrs, settings)
     return RecordingResult(trajectory=trajectory, analysis=analysis, fit=fit, settings=settings, ball=ball)
@@ -436,18 +441,14 @@ def process_recording(recording, ball=None, settings=None, *, sample_id=None, tr
 def _picture_result(path, ball, settings, sample_id, tracked):
     """A video measured, analysed and fitted by its picture alone."""
     trajectory = measure_recording(path, ball, settings, sample_id=sample_id, tracked=tracked)
-    analysis = analyse_trajectory(trajectory, settings)
-    fit = fit_analysis(analysis, trajectory.attrs, settings)
-    return RecordingResult(trajectory=trajectory, analysis=analysis, fit=fit, settings=settings, ball=ball)
+    return _result_of(trajectory, settings, ball)
 
 
 def _sound_result(path, sound, attrs, settings, ball, release_time_s=None):
     """A video's sound track measured, analysed and fitted as a sound recording (release on its clock, s)."""
     trajectory = sound_trajectory(path, attrs, release_time_s, sound=sound)
     trajectory.attrs["source_sha256"] = sha256_of(path)
-    analysis = analyse_trajectory(trajectory, settings)
-    fit = fit_analysis(analysis, trajectory.attrs, settings)
-    return RecordingResult(trajectory=trajectory, analysis=analysis, fit=fit, settings=settings, ball=ball)
+    return _result_of(trajectory, settings, ball)
 
 
 def _with_fusion(result, fusion):
