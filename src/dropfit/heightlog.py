@@ -387,7 +387,7 @@ def flight_acceleration(time_s, height_px, source="log", nominal_drag_k_per_m=0.
     from .analysis.flights import parabola_start
     from .analysis.segmentation import CONTACT_CLEARANCE_S, free_flights
 
-    sign = vertical_sign(time_s, height_px if seen_px is None else np.where(np.isfinite(height_px), height_px, seen_px))
+    sign = vertical_sign(time_s, height_px, seen_px)
     try:
         found = segment(time_s - time_s[0], sign * height_px, source,
                         seen_height=None if seen_px is None else sign * np.asarray(seen_px, dtype=float))

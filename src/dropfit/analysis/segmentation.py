@@ -443,39 +443,56 @@ FLIGHT_CURVATURE_SIGMAS = 3.0
 MEDIAN_SE_FACTOR = 1.2533
 
 
-def vertical_sign(time_s, height):
+def vertical_sign(time_s, height, seen_height=None):
     """+1 if the height axis points up, −1 if it points down (image rows).
 
     The second differences (over about 10 ms) of the samples that move are mostly the flights' own: g times
     the step squared, downwards. Their median's sign decides where it is at least
     ``FLIGHT_CURVATURE_SIGMAS`` standard errors from 0: tracking jumps (a hand taken for the ball while it
     held it, lone positions seen in a gap) move a few differences by hundreds of px and do not move a median
-    (their sum outweighed seven impacts of a phone clip, and the clip was read upside down). Else every second
+    (their sum outweighed seven impacts of a phone clip, and the clip was read upside down). The clean
+    ``height`` is judged first, then with ``seen_height`` filling its gaps: a ball held at the frame's edge and
+    rolling after its bounces, seen but not measured cleanly, scattered the median of a clip whose 40 clean flight
+    samples curve down by 12-14 px a step, and a hand's jumps read it upside down. Else every second
     difference that is not free flight lies above the flights' curvature on an axis pointing up, and below it on
     one pointing down: an impact (the velocity reverses upwards) far above, a ball at rest (no curvature) above
     by g times the step squared; the sign of the large ones' sum decides (a tracking jump makes large
     differences of both signs that cancel). Without any large one (no impact in view, no rest), a dropped
     ball starts above its median position.
     """
-    valid = np.isfinite(height)
-    t, y = time_s[valid], height[valid]
-    lag = max(1, int(round(0.01 / float(np.median(np.diff(t)))))) if t.size > 1 else 1
-    if y.size > 2 * lag:
-        floor = 1e-12 * float(np.ptp(y))
-        curvature = y[2 * lag:] - 2 * y[lag:-lag] + y[: -2 * lag]
-        # a clean 30 Hz log's flights curve by 11 mm a step, which stood out from a 0.2 mm noise as if every
-        # sample were an impact; a ball held for seconds made the median a rest's 0
-        moving = np.abs(y[2 * lag:] - y[: -2 * lag]) > 5 * max(robust_sigma(curvature), floor)
-        flights = curvature[moving] if np.count_nonzero(moving) >= 3 else curvature
-        centre = float(np.median(flights))
-        spread = max(robust_sigma(flights, centre=centre), floor)
-        if abs(centre) >= FLIGHT_CURVATURE_SIGMAS * MEDIAN_SE_FACTOR * spread / np.sqrt(flights.size):
-            return -float(np.sign(centre))  # flights curve down
-        curvature = curvature - centre
+    candidates = [np.asarray(height, dtype=float)]
+    if seen_height is not None:
+        candidates.append(np.where(np.isfinite(candidates[0]), candidates[0], seen_height))
+    for heights in candidates:
+        decided, t, y, curvature, spread = _median_curvature_sign(time_s, heights)
+        if decided:
+            return decided
+    if curvature is not None:
         large = curvature[np.abs(curvature) > 10 * spread]
         if large.size and large.sum() != 0:
             return float(np.sign(large.sum()))
     return -1.0 if y[0] < np.median(y) else 1.0
+
+
+def _median_curvature_sign(time_s, height):
+    """(−sign of the moving samples' median second difference or 0.0 when it is within
+    ``FLIGHT_CURVATURE_SIGMAS`` standard errors of 0, the valid times, heights, their second differences about
+    that median (None for too few samples) and the differences' robust spread): :func:`vertical_sign`."""
+    valid = np.isfinite(height)
+    t, y = time_s[valid], height[valid]
+    lag = max(1, int(round(0.01 / float(np.median(np.diff(t)))))) if t.size > 1 else 1
+    if y.size <= 2 * lag:
+        return 0.0, t, y, None, 0.0
+    floor = 1e-12 * float(np.ptp(y))
+    curvature = y[2 * lag:] - 2 * y[lag:-lag] + y[: -2 * lag]
+    # a clean 30 Hz log's flights curve by 11 mm a step, which stood out from a 0.2 mm noise as if every
+    # sample were an impact; a ball held for seconds made the median a rest's 0
+    moving = np.abs(y[2 * lag:] - y[: -2 * lag]) > 5 * max(robust_sigma(curvature), floor)
+    flights = curvature[moving] if np.count_nonzero(moving) >= 3 else curvature
+    centre = float(np.median(flights))
+    spread = max(robust_sigma(flights, centre=centre), floor)
+    decided = abs(centre) >= FLIGHT_CURVATURE_SIGMAS * MEDIAN_SE_FACTOR * spread / np.sqrt(flights.size)
+    return (-float(np.sign(centre)) if decided else 0.0), t, y, curvature - centre, spread
 
 
 def up_direction(time_s, x, y):
