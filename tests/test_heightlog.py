@@ -8,7 +8,7 @@ from dropfit.errors import InputError
 from dropfit.heightlog import QUALITY_DROPOUT, QUALITY_OK, read_height_log, trajectory_from_log
 from dropfit.synth import sample_height_log
 
-from helpers import BAD_LOGS, write_bad_log, write_log, write_no_bounce_log
+from helpers import BAD_LOGS, bouncing_ball, write_bad_log, write_log, write_no_bounce_log
 
 #: Noise-free logs are written with ``%.6f`` in their own unit; the worst rounding (unit m) is 5e-7 m.
 CSV_ROUNDING_TOL_M = 1e-6  # m
@@ -342,6 +342,35 @@ def test_a_log_in_cm_under_a_metre_header_still_says_check_the_units(tmp_path):
         dropfit.analyse_recording(path)
     assert "check the units" in str(refusal.value) and "cm under a metre header" in str(refusal.value)
     assert "slow-motion" not in str(refusal.value)
+
+
+@pytest.mark.parametrize("duration_s", [3.0, 2.0])
+def test_a_log_sampled_too_slowly_for_its_fall_says_so_and_the_rate_that_would_do(tmp_path, duration_s):
+    """A 0.5 m drop logged at 5 samples/s: its fall lasts 1.6 sample intervals. Before: 'no dip deeper than 5 noise
+    standard deviations' (3 s, 16 samples) or 'only 11 valid samples' (2 s), as if the ball had not bounced or the
+    log were short; the refusal names the sampling and a rate that would do (16 samples/s, 5 over the fall)."""
+    import dropfit
+
+    time = np.arange(-0.4, duration_s - 0.4, 0.2)
+    height = bouncing_ball(np.clip(time, 0.0, None), 0.5, 0.75) + np.random.default_rng(4).normal(0, 5e-4, time.size)
+    path = _metre_log(tmp_path / "slow_log.csv", time, height)
+    with pytest.raises(InputError) as refusal:
+        dropfit.analyse_recording(path)
+    message = str(refusal.value)
+    assert "1.6 sample intervals at 5 samples/s" in message and "record at 16 samples/s or faster" in message
+
+
+def test_a_log_whose_heights_point_down_says_so_where_no_bounce_is_found(tmp_path):
+    """A distance from a sensor above the ball, written as heights: every bounce is a sharp peak. Before: 'no dip
+    deeper than 5 noise standard deviations'; the refusal says the heights point down and how to give them."""
+    import dropfit
+
+    time = np.arange(-0.2, 3.0, 0.005)
+    height = bouncing_ball(np.clip(time, 0.0, None), 0.5, 0.75) + np.random.default_rng(5).normal(0, 5e-4, time.size)
+    path = _metre_log(tmp_path / "down.csv", time, -height)
+    with pytest.raises(InputError) as refusal:
+        dropfit.analyse_recording(path)
+    assert "the heights point down" in str(refusal.value) and "--columns distance=COL[m]" in str(refusal.value)
 
 
 def test_a_log_whose_time_base_is_slow_motion_names_it_and_the_capture_rate(tmp_path):

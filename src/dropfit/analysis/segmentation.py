@@ -364,6 +364,39 @@ def impact_dips(t, y, noise):
     return np.unique(np.asarray(lowest, dtype=int))
 
 
+#: What heights that point down are, and what to do (a log's distance from a sensor above, read as heights).
+HEIGHTS_POINT_DOWN = ("the heights point down (a distance from above); name the column a distance with --columns "
+                      "distance=COL[m] (or give --sensor-height-m), or give heights up")
+
+
+#: Shortest fall over a log's whole span (s) that :func:`_undersampled` judges: 64 ms is 2 cm at g, beyond the
+#: span of a held ball's noise (a 1 mm-noise log spans about 6 mm), which falls in fewer than 5 intervals at 100 Hz.
+MIN_UNDERSAMPLED_FALL_S = 0.064
+
+
+def _undersampled(t, y, acceleration=None):
+    """Why a log sampled too slowly for its fall shows no bounce, in words, or None: with ``acceleration`` (L/s²,
+    the heights' unit known), a fall over the whole span of the heights lasting fewer than
+    ``MIN_SAMPLES_PER_FLIGHT`` sample intervals (and at least :data:`MIN_UNDERSAMPLED_FALL_S`)."""
+    interval = float(np.median(np.diff(t))) if t.size > 1 else 0.0
+    if acceleration is None or not acceleration > 0 or not interval > 0:
+        return None
+    fall_s = math.sqrt(2.0 * float(np.ptp(y)) / acceleration)
+    if fall_s >= MIN_SAMPLES_PER_FLIGHT * interval or fall_s < MIN_UNDERSAMPLED_FALL_S:
+        return None
+    return (f"a fall over the whole span of its heights lasts {fall_s / interval:.1f} sample intervals at "
+            f"{1.0 / interval:.3g} samples/s, fewer than the {MIN_SAMPLES_PER_FLIGHT} a flight needs: record at "
+            f"{math.ceil(MIN_SAMPLES_PER_FLIGHT / fall_s):g} samples/s or faster (the bounces, lower, need more)")
+
+
+def _no_bounce_cause(t, y, noise):
+    """Why no dip was found in a log sampled densely enough, in words: heights that point down (the dips are
+    peaks), else no dip deep enough in the noise."""
+    if impact_dips(t, -y, noise).size:
+        return f"it peaks sharply where a bounce dips: {HEIGHTS_POINT_DOWN}"
+    return f"no dip deeper than {IMPACT_DEPTH_IN_NOISE:g} noise standard deviations"
+
+
 def segment(time_s, height, source="trajectory", acceleration=None, seen_height=None):
     """Noise, tracking jumps, release and bounces of a trajectory: the segmentation every estimator uses.
 
@@ -399,7 +432,8 @@ def segment(time_s, height, source="trajectory", acceleration=None, seen_height=
     valid = np.flatnonzero(np.isfinite(height))
     t, y = time_s[valid], height[valid]
     if y.size < 3 * MIN_SAMPLES_PER_FLIGHT:
-        raise InputError(f"{source}: only {y.size} valid samples, too few to find a bounce")
+        slow = _undersampled(t, y, acceleration) if y.size > 1 else None
+        raise InputError(f"{source}: only {y.size} valid samples, too few to find a bounce{f' ({slow})' if slow else ''}")
     noise = noise_level(y)
     clean = None if seen_height is None else clean_all[valid]
     jumps = find_outliers(t, y, noise if clean is None or clean.all() else SEEN_JUMP_NOISE_FACTOR * noise)
@@ -409,10 +443,13 @@ def segment(time_s, height, source="trajectory", acceleration=None, seen_height=
     t, y = t[~jumps], y[~jumps]
     dips = impact_dips(t, y, noise)
     if dips.size == 0:
+        # sampled too slowly, the motion itself reads as noise: the sampling is named before a ball that never falls
+        slow = _undersampled(t, y, acceleration)
+        if slow:
+            raise InputError(f"{source}: no bounce found ({slow})")
         if np.ptp(y) <= 2 * IMPACT_DEPTH_IN_NOISE * noise:
             raise InputError(f"{source}: the ball never falls (height stays within noise of its start)")
-        raise InputError(f"{source}: no bounce found (no dip deeper than {IMPACT_DEPTH_IN_NOISE:g} noise "
-                         f"standard deviations)")
+        raise InputError(f"{source}: no bounce found ({_no_bounce_cause(t, y, noise)})")
     if acceleration is None:
         acceleration = flight_acceleration_estimate(t, y, dips, dips[0] - _clearance_samples(t) + 1)
         if not acceleration > 0:
@@ -678,9 +715,8 @@ def check_free_fall(t, y, bounds, g, source):
     median_se = MEDIAN_SE_FACTOR * float(np.median([se for _, se, _ in own])) / np.sqrt(len(own))
     tolerance = FREE_FALL_TOLERANCE + FREE_FALL_SIGMAS * median_se / g
     if abs(acceleration / g + 1.0) < tolerance:  # g, upwards: heights measured down
-        raise NotFreeFallError(f"{source}: the flights fall with {acceleration:.4g} m/s², g upwards: the heights point "
-                               f"down (a distance from above); name the column a distance with --columns "
-                               f"distance=COL[m] (or give --sensor-height-m), or give heights up", acceleration)
+        raise NotFreeFallError(f"{source}: the flights fall with {acceleration:.4g} m/s², g upwards: "
+                               f"{HEIGHTS_POINT_DOWN}", acceleration)
     if not abs(acceleration / g - 1.0) < tolerance:
         raise NotFreeFallError(f"{source}: the flights fall with {acceleration:.4g} m/s², not g = {g:g} m/s²: check "
                                f"the units of time and height in the column names (or the scale of a px log)",
