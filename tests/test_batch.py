@@ -184,3 +184,29 @@ def test_e_against_the_sheet_s_numbers_is_a_png_with_or_without_them():
     with_numbers = table.assign(temperature_C=[20.0, 25.0, 30.0], surface=["a", "b", "c"])
     for frame in (table, with_numbers):
         assert extras_png(frame).startswith(b"\x89PNG\r\n\x1a\n")
+
+
+@pytest.mark.parametrize("config, said", [
+    ({"analysis": "text"}, "analysis is 'text', not a mapping of its options"),
+    ({"analysys": {"drag": "on"}}, "'analysys' is not a key dropfit reads; did you mean analysis?"),
+    ({"itf": {"rebound_min": 1.35}}, "'itf.rebound_min' is not a key dropfit reads; did you mean rebound_min_m?"),
+])
+def test_a_batch_config_that_cannot_apply_is_refused(config, said):
+    """``dropfit batch --config '{"analysis": "text"}'`` ran as if no config had been given."""
+    from dropfit.errors import InputError
+    from dropfit.settings import check_config
+
+    with pytest.raises(InputError, match="--config: ") as refusal:
+        check_config(config)
+    assert said in str(refusal.value)
+
+
+def test_the_workflow_config_and_its_schema_pass_the_batch_check():
+    """Every key of the workflow's schema is one the check knows, and the shipped config passes it."""
+    from dropfit.settings import OPTIONS, WORKFLOW_ONLY_KEYS, check_config
+
+    root = Path(__file__).resolve().parents[1]
+    schema = yaml.safe_load((root / "workflow" / "schemas" / "config.schema.yaml").read_text(encoding="utf-8"))
+    known = {option.config[0] for option in OPTIONS.values() if option.config} | set(WORKFLOW_ONLY_KEYS)
+    assert set(schema["properties"]) == known
+    check_config(yaml.safe_load((root / "config" / "config.yaml").read_text(encoding="utf-8")))

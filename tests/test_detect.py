@@ -228,6 +228,23 @@ def test_hints_single_out_the_ball(hints):
     assert centre_errors(table, truth).max() <= 2 * SHADOW_TOLERANCE_PX
 
 
+@pytest.mark.parametrize("hints, said", [
+    (dict(ball_at_px=(25, 80, 41)), "--ball-at-px names frame 25, but the clip's frames are 0-19"),
+    (dict(ball_at_px=(0, 800, 41)), "--ball-at-px puts the ball at 800,41 px, outside the"),
+    (dict(roi_px=(900, 0, 1000, 100)), "--roi-px 900,0,1000,100 lies outside the"),
+])
+def test_a_hint_that_cannot_apply_to_the_clip_is_refused(tmp_path, hints, said):
+    """A frame beyond the clip, or a point or region outside the frame, was silently never used."""
+    from dropfit.video.track import track_video
+    from helpers import encode_clip
+
+    frames, _ = draw_clip(np.random.default_rng(36), (150.0, 170.0, 185.0), (40.0, 40.0, 200.0), n=20)
+    path = encode_clip(tmp_path / "clip.mp4", frames)
+    with pytest.raises(InputError, match="clip.mp4: ") as refusal:
+        track_video(path, hints=TrackerHints(**hints))
+    assert said in str(refusal.value)
+
+
 def test_a_blob_of_another_size_where_the_ball_should_be_is_not_taken_for_it():
     """Decision: once ``ok`` frames have given the ball's radius, a blob twice as large at the
     predicted position (the ball gone behind something, a ball-coloured object there) is not the ball."""

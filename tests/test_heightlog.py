@@ -405,3 +405,24 @@ def test_the_flights_of_a_noisy_px_table_fall_with_g_within_their_own_errors(tmp
     # (e's standard error at this noise and frame rate is about a quarter too small: RMS z 1.3 over 34 impacts of
     # 12 seeds at 1 px, seed 8 here 3.2; a matter of the estimator, not of the scale)
     assert abs(impacts["e"].iloc[0] - PX_TABLE["e"]) < 4.0 * impacts["e_se"].iloc[0]
+
+
+@pytest.mark.parametrize("encoding", ["utf-32", "utf-32-be", "utf-32-le"])
+def test_utf32_text_is_named_utf32(tmp_path, encoding):
+    """UTF-32 (with its byte-order mark, which begins as UTF-16's, or without) was named UTF-16."""
+    path = tmp_path / "log.csv"
+    path.write_text("time_s,y_m\n0.0,1.0\n0.01,0.9995\n", encoding=encoding)
+    with pytest.raises(InputError, match="is UTF-32 text") as refusal:
+        read_height_log(path)
+    assert "save it as CSV in UTF-8" in str(refusal.value)
+
+
+def test_a_row_of_empty_fields_is_not_read_as_decimal_commas(tmp_path):
+    """One junk row ',,,,' in a good log was read as 'uses decimal commas' (no digits at all passed the check)."""
+    rows = [f"{0.01 * i:.2f},{1.0 - 0.049 * (0.01 * i) ** 2:.6f}" for i in range(40)]
+    path = tmp_path / "log.csv"
+    path.write_text("\n".join(["time_s,y_m", *rows[:20], ",,,,", *rows[20:]]) + "\n", encoding="utf-8")
+    with pytest.raises(InputError) as refusal:
+        read_height_log(path)
+    message = str(refusal.value)
+    assert "decimal commas" not in message and "data row 21 has 5 fields but the header has 2" in message

@@ -670,3 +670,20 @@ def test_values_that_cannot_be_read_say_why(content, options, message, tmp_path)
     path.write_text(content, encoding="utf-8")
     with pytest.raises(InputError, match=r"^" + re.escape(shown_path(path)) + ": " + message):
         read_track(path, ImportOptions(**options))
+
+
+@pytest.mark.parametrize("columns, said", [
+    ("time=time_s[s],y=y_m[m]junk", "has text after its [unit] or an unclosed bracket"),
+    ("time=time_s[s],y=y_m[m", "has text after its [unit] or an unclosed bracket"),
+    ("time=time_s[s],y=height[m]", "names 'height' for the height, but the columns are 'time_s', 'y_m'"),
+])
+def test_a_column_mapping_that_cannot_apply_is_refused_not_ignored(tmp_path, columns, said):
+    """Junk after a mapping's unit was taken into the column's name, and on a log in dropfit's own columns the
+    mapping was not read at all: the log was analysed as if no --columns had been given."""
+    time = np.arange(0.0, 2.0, 0.005)
+    path = tmp_path / "log.csv"
+    path.write_text("time_s,y_m\n" + "".join(f"{t:.3f},{h:.6f}\n" for t, h in zip(time, bouncing_ball(time, 0.5, 0.7))),
+                    encoding="utf-8")
+    with pytest.raises(InputError) as refusal:
+        read_track(path, ImportOptions(columns=columns))
+    assert said in str(refusal.value)

@@ -27,7 +27,7 @@ from . import __version__, stages
 from .errors import InputError, one_line, shown, shown_path
 from .files import write_failure
 from .heightlog import is_number
-from .settings import OPTIONS, OptionError, Settings, option_default, split_options
+from .settings import OPTIONS, OptionError, Settings, check_config, option_default, split_options
 
 
 SAMPLE_ID_HELP = "the recording's name, kept in its outputs (the workflow's sample_id)"
@@ -257,6 +257,7 @@ def _batch_config(value):
                          f"({type(error).__name__}: {shown(error)}); give config/config.yaml") from None
     if not isinstance(config, dict):
         raise InputError(f"{shown_path(value)}: --config holds no mapping of keys; give config/config.yaml")
+    check_config(config, f"{shown_path(value)}: --config" if not value.lstrip().startswith("{") else "--config")
     return config
 
 

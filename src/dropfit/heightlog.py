@@ -118,6 +118,9 @@ def check_not_other_file(path, raw):
     if raw[:4] == b"RIFF" and raw[8:12] == b"AVI ":
         raise InputError(f"{name}: is an AVI video; give it the suffix .avi")
     head = raw[:65536]
+    # UTF-32 text is three quarters zero bytes (its byte-order mark begins as UTF-16's), UTF-16 text half
+    if raw.startswith((b"\xff\xfe\x00\x00", b"\x00\x00\xfe\xff")) or head.count(b"\x00") > 0.6 * len(head):
+        raise InputError(f"{name}: is UTF-32 text (or binary data), not UTF-8; save it as CSV in UTF-8")
     if raw.startswith((b"\xff\xfe", b"\xfe\xff")) or head.count(b"\x00") > 0.3 * len(head):
         raise InputError(f"{name}: is UTF-16 text (or binary data), not UTF-8; save it as CSV in UTF-8")
     control = sum(head.count(bytes([code])) for code in range(32) if code not in (9, 10, 13))
@@ -149,7 +152,9 @@ def _check_fields(path, header, rows):
                          f"remove the trailing commas, or end the header with one too")
     first = ragged[0]
     row = fields[first]
-    if len(row) > width and all(field.strip().lstrip("-+").isdigit() for field in row if field.strip()):
+    # (a row of empty fields, ',,,,', has no digits to be decimal commas)
+    if len(row) > width and any(field.strip() for field in row) \
+            and all(field.strip().lstrip("-+").isdigit() for field in row if field.strip()):
         raise InputError(f"{name}: uses decimal commas (data row {first + 1}: '{shown(rows[first], 30)}' has "
                          f"{len(row)} fields under a header of {width}); save it with a decimal point")
     advice = "every row needs one value per column" + (", a dropout an empty one (as in '0.05,')"
@@ -484,7 +489,7 @@ def acceleration_reading(acceleration_ratio, sample_rate_hz, span_m=np.nan):
                      or PLAUSIBLE_SPAN_M[0] <= span_m / ratio <= PLAUSIBLE_SPAN_M[1])]
     slow = slow_motion_reading(acceleration_ratio, sample_rate_hz,
                                advice="if tracked on a slow-motion video, give that rate to the tracking tool")
-    readings += [f"its flights {slow}"] if slow else []
+    readings += [f"the ball {slow}"] if slow else []
     return "the numbers point to " + ", or ".join(readings) if readings else None
 
 

@@ -14,6 +14,7 @@ leaves out is not passed, so the stage takes the default from here.
 from __future__ import annotations
 
 import dataclasses
+import difflib
 import math
 import numbers
 from dataclasses import dataclass
@@ -611,6 +612,38 @@ def workflow_values(config, row=None):
                 values.pop(name, None)
         values.update(columns)
     return {name: values[name] for name in OPTIONS if name in values}
+
+
+#: Keys of the workflow's config that configure the workflow itself (workflow/schemas/config.schema.yaml), not a
+#: recording's analysis: ``dropfit batch --config`` accepts and ignores them.
+WORKFLOW_ONLY_KEYS = ("samples", "scenarios", "parallel_jobs", "chunk_size", "fail_on_failed_recordings")
+
+
+def check_config(config, source="--config"):
+    """InputError for a workflow config that cannot apply: a key no option has (with the key meant, where one is
+    close), a section such as ``analysis`` that is not a mapping. Values are checked where they are used (each
+    option's range and choices, per recording)."""
+    paths = [option.config for option in OPTIONS.values() if option.config]
+    sections = {path[0] for path in paths if len(path) > 1}
+
+    def refuse(key, known, where):
+        close = difflib.get_close_matches(key, known, n=1)
+        meant = f"did you mean {close[0]}? " if close else ""
+        raise InputError(f"{source}: '{where}{shown(key, 30)}' is not a key dropfit reads; {meant}the keys are "
+                         f"{', '.join(sorted(known))} (workflow/schemas/config.schema.yaml)")
+
+    top = {path[0] for path in paths} | set(WORKFLOW_ONLY_KEYS)
+    for key, value in config.items():
+        if key not in top:
+            refuse(str(key), top, "")
+        if key in sections:
+            if not isinstance(value, dict):
+                raise InputError(f"{source}: {key} is '{shown(value, 30)}', not a mapping of its options; give e.g. "
+                                 f"{key}: {{{', '.join(path[1] + ': …' for path in paths if path[0] == key)}}}")
+            inner = {path[1] for path in paths if path[0] == key}
+            for name in value:
+                if name not in inner:
+                    refuse(str(name), inner, f"{key}.")
 
 
 def settings_from_config(config, row=None):

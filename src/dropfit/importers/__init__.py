@@ -88,8 +88,10 @@ def _read_text(path, lines, options):
     from . import imagej, sensors, tracker
     from .table import MAX_LINE_CHARACTERS, SEPARATORS, read_table, split, track_from_table
 
+    # a mapping given is applied, to dropfit's own columns too (named wrongly, it is refused, not ignored)
     if options.format == "dropfit" or options.format is None and (
-            max(map(len, lines[:50]), default=0) > MAX_LINE_CHARACTERS or _is_native(lines)):
+            max(map(len, lines[:50]), default=0) > MAX_LINE_CHARACTERS
+            or _is_native(lines) and not options.columns):
         return _native(path)
     if options.format == "mtrack2" or options.format is None and imagej.is_mtrack2(lines):
         return _finished(path, imagej.read_mtrack2(path, lines, options))

@@ -302,6 +302,10 @@ def parse_mapping(path, text):
                              f"time=t[s],y=height[cm] (roles: time or frame, y or distance, x)")
         unit = None
         match = re.match(r"^(?P<name>.*?)\s*\[(?P<unit>[^\]]*)\]\s*$", column.strip())
+        if not match and re.search(r"[\[\]]", column):  # a unit with text after it, or a bracket unclosed
+            raise InputError(f"{shown_path(path)}: --columns '{shown(text)}' is not a mapping such as "
+                             f"time=t[s],y=height[cm]: '{shown(column.strip(), 30)}' has text after its [unit] or an "
+                             f"unclosed bracket")
         if match:
             column, unit = match["name"], normal_unit(match["unit"])
             if unit is None:

@@ -1005,6 +1005,25 @@ class _KeptFrames:
             yield frame
 
 
+def _check_hints(hints, frames, shape, name):
+    """InputError for a hint that cannot apply to a clip of ``frames`` frames of ``shape`` (rows, columns) px: a
+    frame of ``--ball-at-px`` beyond the clip or a point outside the frame, a ``--roi-px`` outside it."""
+    height, width = shape
+    if hints.ball_at_px is not None:
+        frame, x, y = hints.ball_at_px
+        if not 0 <= frame < frames:
+            raise InputError(f"{name}: --ball-at-px names frame {frame:g}, but the clip's frames are 0-{frames - 1}; "
+                             f"give FRAME,X,Y of a frame in it (see the contact sheet, dropfit overlay)")
+        if not (0 <= x < width and 0 <= y < height):
+            raise InputError(f"{name}: --ball-at-px puts the ball at {x:g},{y:g} px, outside the {width}x{height} px "
+                             f"frame; give X,Y in px from the frame's top left corner")
+    if hints.roi_px is not None:
+        x0, y0, x1, y1 = hints.roi_px
+        if x0 >= width or y0 >= height or x1 <= 0 or y1 <= 0:
+            raise InputError(f"{name}: --roi-px {x0:g},{y0:g},{x1:g},{y1:g} lies outside the {width}x{height} px "
+                             f"frame; give X0,Y0,X1,Y1 in px from the frame's top left corner")
+
+
 def track_video(path, capture_fps=None, expected_radius_px=None, *, background_samples=BACKGROUND_SAMPLES,
                 progress_stream=None, frame_memory_bytes=None, hints=None):
     """Track the ball through a video file.
@@ -1092,6 +1111,7 @@ def track_video_and_background(path, capture_fps=None, expected_radius_px=None, 
                 rows.append(tracker.update(image))
                 kept.keep(image, rows[-1])
     check_frame_count(len(rows), info.frame_count, path)
+    _check_hints(hints, len(rows), background.grey.shape, name)
     if len(rows) < MIN_FRAMES:
         raise InputError(f"{name}: the video has only {len(rows)} frame{'s' if len(rows) > 1 else ''}; a drop "
                          f"test needs at least {MIN_FRAMES}, and tens in each flight")
