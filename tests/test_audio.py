@@ -603,3 +603,22 @@ def test_the_red_balls_sound_track_is_silence():
     clip = real_recording("phone-clips", "red_ball_portrait.mp4")
     with pytest.raises(InputError, match="digital silence"):
         read_sound(clip)
+
+
+def test_a_stereo_file_whose_channels_cancel_is_heard_from_one_channel(tmp_path):
+    """The real ping-pong recording written as stereo with its second channel inverted: averaged, the channels left
+    17 samples of ±1 LSB and 7 impacts were heard of the mono file's; the loudest channel alone is analysed, with a
+    note, and gives the mono file's impacts and e."""
+    import soundfile
+
+    import dropfit
+
+    mono_path = real_recording("ping-pong-audio", "pingpong.wav")
+    samples, rate = soundfile.read(mono_path)
+    path = tmp_path / "cancel.wav"
+    soundfile.write(path, np.column_stack([samples, -samples]), rate, subtype="PCM_16")
+    options = dict(ball_type="table_tennis", ball_radius_m=0.02, ball_mass_kg=0.0027)
+    mono, stereo = dropfit.analyse_recording(mono_path, **options), dropfit.analyse_recording(path, **options)
+    assert len(stereo.impacts) == len(mono.impacts)
+    np.testing.assert_allclose(stereo.impacts["t_touchdown_s"], mono.impacts["t_touchdown_s"], atol=1e-4)
+    assert any("channels cancel when averaged" in note for note in stereo.notes)

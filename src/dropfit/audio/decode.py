@@ -10,6 +10,7 @@ encoder's delay (25 ms for LAME at 44.1 kHz) although that block is the recordin
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
@@ -41,12 +42,15 @@ class Sound:
         stamp for a video's sound track).
     codec : str
         What was decoded (format and subtype, or the codec's name).
+    channel_note : str
+        What was done with the channels, when they were not averaged (empty otherwise).
     """
 
     samples: np.ndarray
     rate_hz: float
     start_s: float = 0.0
     codec: str = ""
+    channel_note: str = ""
 
     @property
     def duration_s(self):
@@ -94,7 +98,27 @@ def read_sound(path):
         raise InputError(f"{name}: the sound track is digital silence (every sample is 0 over {sound.duration_s:.3g} s: "
                          f"recorded muted or without a microphone): no impact can be heard; record with the "
                          f"microphone on, or measure the picture alone")
-    return sound
+    return _one_channel_if_they_cancel(sound)
+
+
+#: Channels whose average keeps less than this share of the loudest one's RMS cancel (one is the other inverted): a
+#: stereo file whose channels cancel averaged to 17 samples of ±1 LSB, and 7 impacts were heard of 56.
+CANCELLING_CHANNELS_SHARE = 0.1
+
+
+def _one_channel_if_they_cancel(sound):
+    """The sound with its loudest channel alone where its channels cancel when averaged (one wired inverted, the
+    analysis averages them): :data:`CANCELLING_CHANNELS_SHARE`."""
+    if sound.samples.shape[1] < 2:
+        return sound
+    centred = sound.samples - sound.samples.mean(axis=0)
+    rms = np.sqrt(np.mean(centred ** 2, axis=0))
+    loudest = int(np.argmax(rms))
+    if np.sqrt(np.mean(centred.mean(axis=1) ** 2)) >= CANCELLING_CHANNELS_SHARE * rms[loudest]:
+        return sound
+    note = (f"the {sound.samples.shape[1]} channels cancel when averaged (one is the other inverted): channel "
+            f"{loudest + 1} alone is analysed")
+    return dataclasses.replace(sound, samples=sound.samples[:, loudest:loudest + 1], channel_note=note)
 
 
 def _read_with_soundfile(path, name):

@@ -77,6 +77,8 @@ def sound_trajectory(path, attrs, release_time_s=None, sound=None, columns=None)
         raise InputError(f"{name}: release_time_s {release_time_s:g} s is not before the first impact heard "
                          f"({onsets.table['time_s'].iloc[0]:.4f} s); give the time the ball was let go")
     table = onsets.table
+    if sound.channel_note:
+        attrs["channel_note"] = sound.channel_note
     attrs.update(recording_kind="audio", sample_rate_hz=sound.rate_hz, channels=int(sound.samples.shape[1]),
                  codec=sound.codec, duration_s=sound.duration_s, timing_jitter_s=onsets.jitter_s,
                  noise_floor=onsets.noise_floor, n_candidates=len(onsets.candidates))
@@ -119,8 +121,9 @@ def analyse_sound(trajectory, gravity, drag_mode, nominal_drag):
         source=shown_path(attrs.get("source", "recording")))
     if drag_mode == "on":
         analysis.summary["notes"].append("drag on: impact times cannot fit k; it is held at the ball's nominal k")
-    if "timing_se_note" in attrs:
-        analysis.summary["notes"].append(attrs["timing_se_note"])
+    for key in ("timing_se_note", "channel_note"):
+        if key in attrs:
+            analysis.summary["notes"].append(attrs[key])
     if k == 0.0 and drag_mode != "off":
         analysis.summary["notes"].append("no drag: give the ball's radius and mass for its drag (e is biased "
                                          "low by the drag otherwise, by several % for a table-tennis ball)")
