@@ -308,6 +308,7 @@ def find_release(t, y, noise, dip, acceleration):
     # the curvature's prior as one more observation, weighted like a sample of the noise
     prior_weight = noise / (0.5 * FREE_FALL_TOLERANCE * acceleration)
     prior_row, prior_target = prior_weight * np.array([0.0, 0.0, 1.0]), -0.5 * acceleration * prior_weight
+    previous = None
     while True:
         design = np.vstack([np.column_stack([np.ones(end - start), tau[start:end], tau[start:end] ** 2]), prior_row])
         target = np.append(y[start:end], prior_target)
@@ -317,6 +318,19 @@ def find_release(t, y, noise, dip, acceleration):
         # σ from a few residuals of a short stretch lying close to its parabola is too small, and the
         # extrapolation then fails samples of the fall (a clip's release was read 0.4 s late): σ ≥ scale
         covariance = least_squares_covariance(design, target - design @ coef, sigma_floor=scale)
+        curvature_se = 2.0 * math.sqrt(covariance[2, 2])
+        off_g = abs(-2.0 * coef[2] - acceleration) - RELEASE_SIGMAS * curvature_se
+        if previous is not None and off_g > FREE_FALL_TOLERANCE * acceleration:
+            # the stretch took the hand's samples: those just before the release lie within the noise of the
+            # fall's apex, so the last sample failing is a few samples early, and fitted with them the fall no
+            # longer curves with g (a 5 cm drop at 100 Hz: 9.2, then 7.9 m/s², widening the scatter that let in
+            # more of the hold, down to 1.8 m/s² and 'check the units'); the stretch before is the fall
+            return previous
+        # (only a stretch seen to fall with g is one to go back to: a log in slipped units or slow motion never is,
+        # and its free-fall check names the cause)
+        falls_with_g = abs(-2.0 * coef[2] / acceleration - 1.0) <= FREE_FALL_TOLERANCE \
+            and curvature_se <= FREE_FALL_TOLERANCE * acceleration
+        previous = start if falls_with_g else previous
         earlier = np.column_stack([np.ones(start), tau[:start], tau[:start] ** 2])
         predicted_variance = np.einsum("ij,jk,ik->i", earlier, covariance, earlier)
         misfit = np.abs(y[:start] - earlier @ coef) > RELEASE_SIGMAS * np.sqrt(scale**2 + predicted_variance)
@@ -394,6 +408,12 @@ def _no_bounce_cause(t, y, noise):
     peaks), else no dip deep enough in the noise."""
     if impact_dips(t, -y, noise).size:
         return f"it peaks sharply where a bounce dips: {HEIGHTS_POINT_DOWN}"
+    tail = y[-max(y.size // 10, 3):]
+    if np.median(tail) - np.min(y) < IMPACT_DEPTH_IN_NOISE * noise < float(np.ptp(y)) / 4.0:
+        # a fall that ends at rest at its lowest: the rebound, if any, is lost in the noise
+        return (f"the ball falls and comes to rest: no rebound rises more than {IMPACT_DEPTH_IN_NOISE:g} noise standard "
+                f"deviations ({IMPACT_DEPTH_IN_NOISE * noise:.2g} in the heights' unit); a rebound that small needs a "
+                f"log with less noise, or the ball does not bounce")
     return f"no dip deeper than {IMPACT_DEPTH_IN_NOISE:g} noise standard deviations"
 
 
