@@ -229,3 +229,54 @@ def test_a_video_with_no_measurable_impact_is_refused_in_one_whole_line(tmp_path
     assert len(line) > OLD_LINE_LIMIT, line
     assert "no impact can be measured: impact 1: " in line and "; impact 2: " in line
     assert line.endswith(TRACKER_HELP) and "\u2026" not in line.split("clip.mov")[1]
+
+
+# --- output paths stay inside their folder; the user's disk is named as such -------------------------
+
+REPO = __import__("pathlib").Path(__file__).resolve().parents[1]
+
+
+def _good_log(path):
+    """A 100 Hz, 1 mm log of a ball dropped from 1 m (e = 0.8) at ``path``."""
+    from dropfit.synth import sample_height_log, simulate_drop
+
+    from helpers import write_log
+
+    truth = simulate_drop(1.0, 0.03, {"kind": "constant", "e0": 0.8}, release_time_s=0.2)
+    return write_log(path, sample_height_log(truth, np.random.default_rng(3), 100.0, duration_s=2.5, noise_m=0.001))
+
+
+#: sample id → words of its refusal
+BAD_SAMPLE_IDS = {"../../escaped": "outside", "sub/dir": "path of folders", "/tmp/abs": "outside",
+                  "..": "outside", ".hidden": "not a plain name", "logs": "workflow's own folder"}
+
+
+def test_batch_refuses_a_sample_id_that_would_leave_the_results(tmp_path, capsys):
+    """``dropfit batch``: a row whose sample_id is not a plain name (``../../escaped`` wrote files two folders above
+    --results, ``sub/dir`` made nested folders) is refused in one line naming the sheet's line, and the rest of the
+    batch goes on; nothing is written outside ``results/<good id>/``."""
+    work = tmp_path / "a" / "b"
+    work.mkdir(parents=True)
+    _good_log(work / "log.csv")
+    ids = ["first", *BAD_SAMPLE_IDS, "last"]
+    (work / "s.tsv").write_text("sample_id\tkind\tpath\tball_type\tball_radius_m\tball_mass_kg\n" + "".join(
+        f"{sample}\theight_log\t{work / 'log.csv'}\tother\t0.03\t0.05\n" for sample in ids), encoding="utf-8")
+    before = sorted(tmp_path.rglob("*"))
+    assert main(["batch", "--samples", str(work / "s.tsv"), "--results", str(work / "results")]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert len(lines) == len(ids)
+    assert lines[0].startswith("first: e = ") and lines[-1].startswith("last: e = ")
+    for number, (line, (sample, words)) in enumerate(zip(lines[1:-1], BAD_SAMPLE_IDS.items()), start=3):
+        assert line.startswith(f"{sample}: failed: {work / 's.tsv'}: line {number}: sample_id '{sample}' "), line
+        assert words in line and "give it a plain name" in line, line
+    made = sorted(set(tmp_path.rglob("*")) - set(before))
+    assert {path.parent for path in made if path.is_file()} == {work / "results" / "first", work / "results" / "last"}
+    assert not (tmp_path / "escaped").exists() and not (work / "results" / "sub").exists()
+
+
+def test_the_batch_and_the_workflow_take_the_same_sample_ids():
+    """``dropfit batch`` refuses the ids the workflow's schema refuses (one pattern)."""
+    from dropfit.files import SAMPLE_ID_PATTERN
+
+    schema = yaml.safe_load((REPO / "workflow" / "schemas" / "samples.schema.yaml").read_text(encoding="utf-8"))
+    assert schema["properties"]["sample_id"]["pattern"] == SAMPLE_ID_PATTERN

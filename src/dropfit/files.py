@@ -10,9 +10,11 @@ from __future__ import annotations
 
 import contextlib
 import csv
+import errno
 import hashlib
 import json
 import os
+import re
 import stat
 import tempfile
 import textwrap
@@ -24,6 +26,29 @@ FAILED = "failed"
 _UMASK = os.umask(0)
 os.umask(_UMASK)
 _CSV_FAILURE_PREFIX = "# dropfit failed: "
+#: A sample id, which names its folder ``<results>/<sample_id>/``: a plain name (letters, digits, ``_ . -``, the
+#: first a letter or digit), so that the folder lies inside the results and holds no folder of its own; not
+#: ``batch`` or ``logs``, the workflow's own folders there. The same pattern as the workflow's schema
+#: (workflow/schemas/samples.schema.yaml), which refuses such an id before any job.
+SAMPLE_ID_PATTERN = r"^(?!batch$|logs$)[A-Za-z0-9][A-Za-z0-9_.-]*$"
+SAMPLE_ID_ADVICE = "give it a plain name of letters, digits, _ . and - that starts with a letter or digit"
+
+
+def sample_id_problem(sample_id, results_dir="results"):
+    """Why ``sample_id`` cannot name a folder inside ``results_dir`` (:data:`SAMPLE_ID_PATTERN`): words to follow
+    ``sample_id '<id>'`` in a message, or None for a good id."""
+    if not isinstance(sample_id, str) or not sample_id.strip():
+        return "is empty"
+    if re.fullmatch(SAMPLE_ID_PATTERN, sample_id):
+        return None
+    if sample_id in ("batch", "logs"):
+        return f"is the name of the workflow's own folder {shown_path(os.path.join(results_dir, sample_id))}"
+    if os.path.isabs(sample_id) or any(
+            part == ".." for part in re.split(r"[/\\]", sample_id)):
+        return f"would put its files outside {shown_path(results_dir)}"
+    if re.search(r"[/\\]", sample_id):
+        return "is a path of folders, not a plain name"
+    return "is not a plain name"
 
 
 @contextlib.contextmanager

@@ -18,7 +18,8 @@ from pathlib import Path
 import yaml
 
 from .errors import InputError, one_line, shown, shown_path
-from .files import atomic_output, read_bytes, read_table, write_json, write_table, write_text
+from .files import (SAMPLE_ID_ADVICE, atomic_output, read_bytes, read_table, sample_id_problem, write_json, write_table,
+                    write_text)
 from .fitrecord import analysis_summary, fit_summary
 from .heightlog import read_trajectory
 from .inputs import read_analysis, read_fit, read_flights, read_impacts, read_report_analysis
@@ -421,6 +422,8 @@ def read_sample_sheet(path):
     for column, default in (("ball_id", sheet["sample_id"]), ("batch", "unbatched")):
         sheet[column] = (sheet[column] if column in sheet.columns else pd.Series(index=sheet.index, dtype=str)
                          ).fillna(default)
+    if len(lines) - 1 == len(sheet):  # the line of the file each row is on, for messages (a quoted cell may span two)
+        sheet.attrs["line_numbers"] = [number for number, _ in lines[1:]]
     return sheet
 
 
@@ -469,6 +472,11 @@ def run_batch(sheet_path, results_dir, config=None, sample_ids=None, say=print):
                          f"give sample ids of the sheet")
     failed = {}
     for sample_id in sample_ids:
+        problem = sample_id_problem(sample_id, str(results_dir))
+        if problem is not None:  # its files would lie outside results_dir (or in a folder of its own): none is written
+            failed[sample_id] = _bad_sample_id(sheet, sheet_path, sample_id, problem)
+            say(f"{shown(sample_id)}: failed: {failed[sample_id]}")
+            continue
         row = sheet.loc[sample_id]
         out = Path(results_dir) / sample_id
         message, tracked = _run_row(row, out, config or {}, say)
@@ -478,6 +486,16 @@ def run_batch(sheet_path, results_dir, config=None, sample_ids=None, say=print):
         _record_failure(row, out, message, tracked)
         say(f"{sample_id}: failed: {message}")
     return failed
+
+
+def _bad_sample_id(sheet, sheet_path, sample_id, problem):
+    """The one line refusing the row of ``sample_id``, whose id cannot name a folder of the results (``problem``,
+    :func:`dropfit.files.sample_id_problem`)."""
+    numbers = sheet.attrs.get("line_numbers")
+    position = [index for index, value in enumerate(sheet.index) if value is sample_id or value == sample_id]
+    where = f"line {numbers[position[0]]}" if numbers and position else "a row"
+    return one_line(f"{shown_path(sheet_path)}: {where}: sample_id '{shown(sample_id)}' {problem}; {SAMPLE_ID_ADVICE} "
+                    f"(it names the folder of the recording's files)")
 
 
 def _run_row(row, out, config, say):
