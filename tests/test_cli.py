@@ -2,8 +2,10 @@
 message through the stages, and a small good run checked against the generator's ground truth."""
 
 import json
+import os
 import shutil
 import subprocess
+import sys
 from html import escape
 
 import numpy as np
@@ -13,6 +15,7 @@ import xarray as xr
 import yaml
 
 from dropfit.cli import main
+from dropfit.errors import shown
 
 from helpers import (BAD_LOGS, CALL_TIMEOUT_S, assert_nothing_written, assert_one_line_error, dropfit, stage_args, write_bad_log,
                      write_no_bounce_log)
@@ -246,8 +249,8 @@ def _good_log(path):
     return write_log(path, sample_height_log(truth, np.random.default_rng(3), 100.0, duration_s=2.5, noise_m=0.001))
 
 
-#: sample id → words of its refusal
-BAD_SAMPLE_IDS = {"../../escaped": "outside", "sub/dir": "path of folders", "/tmp/abs": "outside",
+#: sample id → words of its refusal (``{tmp}``: the test's folder, for an absolute path)
+BAD_SAMPLE_IDS = {"../../escaped": "outside", "sub/dir": "path of folders", "{tmp}/abs": "outside",
                   "..": "outside", ".hidden": "not a plain name", "logs": "workflow's own folder"}
 
 
@@ -258,7 +261,8 @@ def test_batch_refuses_a_sample_id_that_would_leave_the_results(tmp_path, capsys
     work = tmp_path / "a" / "b"
     work.mkdir(parents=True)
     _good_log(work / "log.csv")
-    ids = ["first", *BAD_SAMPLE_IDS, "last"]
+    bad_ids = {sample.format(tmp=tmp_path): words for sample, words in BAD_SAMPLE_IDS.items()}
+    ids = ["first", *bad_ids, "last"]
     (work / "s.tsv").write_text("sample_id\tkind\tpath\tball_type\tball_radius_m\tball_mass_kg\n" + "".join(
         f"{sample}\theight_log\t{work / 'log.csv'}\tother\t0.03\t0.05\n" for sample in ids), encoding="utf-8")
     before = sorted(tmp_path.rglob("*"))
@@ -266,12 +270,14 @@ def test_batch_refuses_a_sample_id_that_would_leave_the_results(tmp_path, capsys
     lines = capsys.readouterr().out.splitlines()
     assert len(lines) == len(ids)
     assert lines[0].startswith("first: e = ") and lines[-1].startswith("last: e = ")
-    for number, (line, (sample, words)) in enumerate(zip(lines[1:-1], BAD_SAMPLE_IDS.items()), start=3):
-        assert line.startswith(f"{sample}: failed: {work / 's.tsv'}: line {number}: sample_id '{sample}' "), line
+    for number, (line, (sample, words)) in enumerate(zip(lines[1:-1], bad_ids.items()), start=3):
+        quoted = shown(sample)
+        assert line.startswith(f"{quoted}: failed: {work / 's.tsv'}: line {number}: sample_id '{quoted}' "), line
         assert words in line and "give it a plain name" in line, line
     made = sorted(set(tmp_path.rglob("*")) - set(before))
     assert {path.parent for path in made if path.is_file()} == {work / "results" / "first", work / "results" / "last"}
     assert not (tmp_path / "escaped").exists() and not (work / "results" / "sub").exists()
+    assert not (tmp_path / "abs").exists()
 
 
 def test_the_batch_and_the_workflow_take_the_same_sample_ids():
@@ -280,3 +286,105 @@ def test_the_batch_and_the_workflow_take_the_same_sample_ids():
 
     schema = yaml.safe_load((REPO / "workflow" / "schemas" / "samples.schema.yaml").read_text(encoding="utf-8"))
     assert schema["properties"]["sample_id"]["pattern"] == SAMPLE_ID_PATTERN
+
+
+def _environment_line(capsys, path, words):
+    """Standard error is one line naming ``path`` with ``words`` (what is wrong and what to do), not an internal
+    error; returns the line."""
+    err = capsys.readouterr().err
+    assert_one_line_error(err, str(path))
+    assert "internal error" not in err and "please report" not in err, err
+    line = err.strip()
+    assert line.startswith(f"dropfit: error: {path}: "), line
+    for word in words:
+        assert word in line, (word, line)
+    return line
+
+
+def test_a_file_where_a_folder_belongs_is_named_with_what_to_do(tmp_path, capsys):
+    """``--out`` that is a file (``dropfit run``), a file where an output's folder belongs (a stage) and a folder
+    where an output file belongs: one line naming the path in the way and what to do, also under --record-failure
+    (whose records cannot be written there either: exit 1)."""
+    log = _good_log(tmp_path / "log.csv")
+    blocker = tmp_path / "taken"
+    blocker.write_text("not a folder", encoding="utf-8")
+    for args in (["run", str(log), "--out", str(blocker)], ["run", str(log), "--out", str(blocker / "sub")],
+                 ["measure", str(log), "--out", str(blocker / "t.nc")]):
+        for record in ([], ["--record-failure"]):
+            assert main(args + record) == 1
+            _environment_line(capsys, blocker, ["is a file where a folder is needed", "move the file away"])
+    assert blocker.read_text(encoding="utf-8") == "not a folder"
+    (tmp_path / "t.nc").mkdir()
+    assert main(["measure", str(log), "--out", str(tmp_path / "t.nc")]) == 1
+    _environment_line(capsys, tmp_path / "t.nc", ["is a folder where a file is to be written", "give a file name"])
+    assert list((tmp_path / "t.nc").iterdir()) == [] and sorted(p.name for p in tmp_path.iterdir()) == [
+        "log.csv", "t.nc", "taken"]
+
+
+def test_a_full_disk_is_the_disk_not_a_bug(tmp_path, capsys, monkeypatch):
+    """A write that fails with ENOSPC (here the NetCDF writer's) names the file it was writing and says to free
+    space; ``dropfit run`` leaves nothing in --out, not even its temporary folder; ``dropfit batch`` goes on."""
+    import errno
+
+    log = _good_log(tmp_path / "log.csv")
+
+    def full(*args, **kwargs):
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+    monkeypatch.setattr(xr.Dataset, "to_netcdf", full)
+    out = tmp_path / "out"
+    assert main(["run", str(log), "--out", str(out)]) == 1
+    _environment_line(capsys, out / "trajectory.nc", ["no space left on device", "free space"])
+    assert list(out.iterdir()) == []
+    assert main(["measure", str(log), "--out", str(tmp_path / "t.nc")]) == 1
+    _environment_line(capsys, tmp_path / "t.nc", ["no space left on device", "free space"])
+    (tmp_path / "s.tsv").write_text("sample_id\tkind\tpath\nA\theight_log\tlog.csv\nB\theight_log\tlog.csv\n",
+                                    encoding="utf-8")
+    monkeypatch.chdir(tmp_path)
+    assert main(["batch", "--samples", "s.tsv", "--results", "r"]) == 0
+    captured = capsys.readouterr()
+    assert "Traceback" not in captured.err and "internal error" not in captured.out
+    assert captured.out.splitlines() == [f"{sample}: failed: {os.path.join('r', sample, 'trajectory.nc')}: cannot be "
+                                         f"written (no space left on device); the disk is full: free space on it, or "
+                                         f"write to another disk" for sample in "AB"]
+
+
+def test_a_read_only_folder_is_named_with_what_to_do(tmp_path, capsys, monkeypatch):
+    """An output on a read-only file system (EROFS, simulated: a test may run as root) and, for real, a folder
+    without write permission (as root with the capability that overrides permissions dropped)."""
+    import errno
+    import tempfile
+
+    log = _good_log(tmp_path / "log.csv")
+
+    def read_only(*args, **kwargs):
+        raise OSError(errno.EROFS, "Read-only file system")
+
+    with monkeypatch.context() as patched:
+        patched.setattr(tempfile, "mkstemp", read_only)
+        patched.setattr(tempfile, "mkdtemp", read_only)
+        for args, named in ((["measure", str(log), "--out", str(tmp_path / "t.nc")], tmp_path / "t.nc"),
+                            (["run", str(log), "--out", str(tmp_path / "out")], tmp_path / "out")):
+            assert main(args) == 1
+            _environment_line(capsys, named, ["read-only", "writable disk"])
+    locked = tmp_path / "locked"
+    locked.mkdir()
+    locked.chmod(0o555)
+    prefix = WITHOUT_OVERRIDE if os.geteuid() == 0 else []
+    if prefix and not shutil.which("setpriv"):
+        pytest.skip("root writes into any folder, and setpriv is not there to drop that capability")
+    for args, named in ((["run", log, "--out", locked], locked), (["fit", "--analysis", "a.json", "--impacts", "i.csv",
+                                                                   "--out", locked / "fit.json"], None)):
+        result = subprocess.run([*prefix, sys.executable, "-m", "dropfit", *map(str, args)], cwd=tmp_path,
+                                capture_output=True, text=True, timeout=CALL_TIMEOUT_S)
+        assert result.returncode == 1
+        if named is not None:
+            assert result.stderr == (f"dropfit: error: {locked}: cannot be written (permission denied); write into a "
+                                     f"folder you may write to, or change its permissions\n")
+    assert list(locked.iterdir()) == []
+
+
+#: As root, a folder's permissions bind only without the capabilities to override them: drop those.
+WITHOUT_OVERRIDE = ["setpriv", "--inh-caps=-dac_override,-dac_read_search",
+                    "--bounding-set=-dac_override,-dac_read_search"]
+

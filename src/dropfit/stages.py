@@ -17,9 +17,9 @@ from pathlib import Path
 
 import yaml
 
-from .errors import InputError, one_line, shown, shown_path
-from .files import (SAMPLE_ID_ADVICE, atomic_output, read_bytes, read_table, sample_id_problem, write_json, write_table,
-                    write_text)
+from .errors import InputError, OutputError, one_line, shown, shown_path
+from .files import (RUN_TEMPORARY_PREFIX, SAMPLE_ID_ADVICE, atomic_output, environment_message, read_bytes, read_table,
+                    sample_id_problem, write_json, write_table, write_text, writing)
 from .fitrecord import analysis_summary, fit_summary
 from .heightlog import read_trajectory
 from .inputs import read_analysis, read_fit, read_flights, read_impacts, read_report_analysis
@@ -210,8 +210,10 @@ def run(recording, out_dir, ball=None, settings=None, sample_id=None, tracked=No
     fusion = result.fusion
     picture_refused = fusion is not None and fusion.picture_refusal is not None
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    with tempfile.TemporaryDirectory(prefix=".dropfit-run.", dir=out) as directory:
+    with writing(out, folder=True):
+        out.mkdir(parents=True, exist_ok=True)
+        temporary = tempfile.TemporaryDirectory(prefix=RUN_TEMPORARY_PREFIX, dir=out)
+    with temporary as directory:
         made = {name: Path(directory) / name for name in (run_files(recording, settings) if video else RUN_FILES)}
         write_trajectory(made["trajectory.nc"], result.trajectory)
         write_analysis(result.analysis, result.trajectory.attrs, made["impacts.csv"], made["flights.csv"],
@@ -227,7 +229,8 @@ def run(recording, out_dir, ball=None, settings=None, sample_id=None, tracked=No
         report(made["trajectory.nc"], made["flights.csv"], made["impacts.csv"], made["analysis.json"],
                made["fit.json"], made["report.html"], made["report.png"], made.get("contact_sheet.png"))
         for name, path in made.items():
-            os.replace(path, out / name)
+            with writing(out / name):
+                os.replace(path, out / name)
     return result
 
 
@@ -479,11 +482,15 @@ def run_batch(sheet_path, results_dir, config=None, sample_ids=None, say=print):
             continue
         row = sheet.loc[sample_id]
         out = Path(results_dir) / sample_id
-        message, tracked = _run_row(row, out, config or {}, say)
+        message, tracked, recordable = _run_row(row, out, config or {}, say)
         if message is None:
             continue
+        try:  # (not where its files could not be written: the records would meet the same disk)
+            if recordable:
+                _record_failure(row, out, message, tracked)
+        except InputError as error:  # its folder cannot be written (the disk, a file in the way): the batch goes on
+            message = one_line(f"{message} (and its failure records were not written: {one_line(str(error))})")
         failed[sample_id] = message
-        _record_failure(row, out, message, tracked)
         say(f"{sample_id}: failed: {message}")
     return failed
 
@@ -499,8 +506,9 @@ def _bad_sample_id(sheet, sheet_path, sample_id, problem):
 
 
 def _run_row(row, out, config, say):
-    """Run one sample-sheet row into ``out``: (None, None) when done, else (reason, the video's tracked
-    table if it was tracked before the failure)."""
+    """Run one sample-sheet row into ``out``: (None, None, False) when done, else (reason, the video's tracked
+    table if it was tracked before the failure, whether failure records may be written: not where an output
+    could not be written)."""
     import traceback
 
     from .settings import OptionError, settings_from_config
@@ -519,13 +527,16 @@ def _run_row(row, out, config, say):
             say(run(path, out, ball, settings, row["sample_id"], tracking_refusal=refusal).summary())
         else:
             say(run(path, out, ball, settings, row["sample_id"], tracked).summary())
-        return None, None
+        return None, None, False
     except InputError as error:
-        return one_line(str(error)), tracked
+        return one_line(str(error)), tracked, not isinstance(error, OutputError)
     except Exception as error:  # noqa: BLE001 — a bug: the traceback to the log, the batch goes on
+        environment = environment_message(error, out)
+        if environment is not None:  # the user's disk or folders, not a bug
+            return one_line(environment), tracked, False
         traceback.print_exc()
         return one_line(f"{shown_path(path)}: internal error in dropfit ({type(error).__name__}: {shown(error)}); "
-                        f"please report it with this file"), tracked
+                        f"please report it with this file"), tracked, True
 
 
 def _record_failure(row, out, message, tracked):
