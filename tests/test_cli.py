@@ -388,3 +388,40 @@ def test_a_read_only_folder_is_named_with_what_to_do(tmp_path, capsys, monkeypat
 WITHOUT_OVERRIDE = ["setpriv", "--inh-caps=-dac_override,-dac_read_search",
                     "--bounding-set=-dac_override,-dac_read_search"]
 
+
+# --- a notebook's report for every kind of recording; what a killed run left; the command line's help ----
+
+def _impact_times_table(path, drop_height_m=1.0, e=0.8, g=9.81, n=12):
+    """A CSV of ``n`` impact times (s) of a point ball dropped from ``drop_height_m`` at t = 0, closed form."""
+    speed, times = np.sqrt(2 * g * drop_height_m), [np.sqrt(2 * drop_height_m / g)]
+    for _ in range(n - 1):
+        speed *= e
+        times.append(times[-1] + 2 * speed / g)
+    pd.DataFrame({"impact_time_s": times}).to_csv(path, index=False)
+    return path
+
+
+def test_report_works_for_every_kind_of_recording(tmp_path):
+    """``analyse_recording(…).report()`` in a notebook: a height log, a table of impact times (it has no samples:
+    the report read its ``time`` and raised KeyError), a sound (the real ping-pong recording) and a video."""
+    from dropfit import analyse_recording
+    from dropfit.synth import simulate_drop
+
+    from helpers import CLIP_BALL_RADIUS_M, real_data_dir, render_drop_clip
+
+    recordings = {"height log": (_good_log(tmp_path / "log.csv"), {}),
+                  "impact times": (_impact_times_table(tmp_path / "times.csv"), {"ball_type": "table_tennis"})}
+    sound = real_data_dir("ping-pong-audio")
+    if sound is not None:
+        recordings["sound"] = (sound / "pingpong.wav", {"ball_type": "table_tennis"})
+    truth = simulate_drop(0.6, CLIP_BALL_RADIUS_M, {"kind": "constant", "e0": 0.8}, release_time_s=0.1)
+    render_drop_clip(tmp_path / "clip.avi", truth, 120.0)
+    recordings["video"] = (tmp_path / "clip.avi", {"ball_radius_m": CLIP_BALL_RADIUS_M})
+    texts = {}
+    for kind, (path, options) in recordings.items():
+        result = analyse_recording(path, **options)
+        texts[kind] = result.report()
+        assert texts[kind].startswith(f"dropfit result: {path.name}") and "\nsamples " in texts[kind], kind
+        assert result.summary() in repr(result) and result._repr_html_().startswith("<div>"), kind
+    assert "12 impact times given over" in texts["impact times"]
+
