@@ -425,3 +425,28 @@ def test_report_works_for_every_kind_of_recording(tmp_path):
         assert result.summary() in repr(result) and result._repr_html_().startswith("<div>"), kind
     assert "12 impact times given over" in texts["impact times"]
 
+
+def test_a_rerun_removes_the_temporary_folders_a_killed_run_left(tmp_path, capsys):
+    """``dropfit run`` into an --out where a killed run left its ``.dropfit-run.*`` folder removes it: one named by a
+    process that is gone, and one of an older dropfit (no process in its name) older than an hour; the folder of a
+    run in progress (this process) and a fresh one of unknown process stay."""
+    import time
+
+    from dropfit.stages import LEFTOVER_AGE_S, RUN_FILES, run_temporary_prefix
+
+    log = _good_log(tmp_path / "log.csv")
+    out = tmp_path / "out"
+    gone = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"], capture_output=True, text=True,
+                          timeout=CALL_TIMEOUT_S, check=True)
+    live = run_temporary_prefix()
+    folders = {"killed": live.replace(f".{os.getpid()}@", f".{int(gone.stdout)}@") + "k1ll3d00",
+               "old": ".dropfit-run.0ld00000", "in progress": live + "l1ve0000", "fresh": ".dropfit-run.fr3sh000"}
+    for name in folders.values():
+        (out / name).mkdir(parents=True)
+        (out / name / "trajectory.nc").write_bytes(b"half written")
+    long_ago = time.time() - 2 * LEFTOVER_AGE_S
+    os.utime(out / folders["old"], (long_ago, long_ago))
+    assert main(["run", str(log), "--out", str(out)]) == 0
+    capsys.readouterr()
+    assert sorted(path.name for path in out.iterdir()) == sorted([*RUN_FILES, folders["in progress"], folders["fresh"]])
+

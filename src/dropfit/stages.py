@@ -212,7 +212,8 @@ def run(recording, out_dir, ball=None, settings=None, sample_id=None, tracked=No
     out = Path(out_dir)
     with writing(out, folder=True):
         out.mkdir(parents=True, exist_ok=True)
-        temporary = tempfile.TemporaryDirectory(prefix=RUN_TEMPORARY_PREFIX, dir=out)
+        remove_leftover_runs(out)
+        temporary = tempfile.TemporaryDirectory(prefix=run_temporary_prefix(), dir=out)
     with temporary as directory:
         made = {name: Path(directory) / name for name in (run_files(recording, settings) if video else RUN_FILES)}
         write_trajectory(made["trajectory.nc"], result.trajectory)
@@ -232,6 +233,59 @@ def run(recording, out_dir, ball=None, settings=None, sample_id=None, tracked=No
             with writing(out / name):
                 os.replace(path, out / name)
     return result
+
+
+#: Seconds after which a temporary folder of ``dropfit run`` that names no process (made by a dropfit before the
+#: names held one) is taken for what a killed run left.
+LEFTOVER_AGE_S = 3600.0  # s
+
+
+def run_temporary_prefix():
+    """The start of the name of :func:`run`'s temporary folder: :data:`dropfit.files.RUN_TEMPORARY_PREFIX`, the
+    process id and the host (``.dropfit-run.<pid>@<host>.``), so that a later run can tell one left by a killed
+    process from one in use."""
+    return f"{RUN_TEMPORARY_PREFIX}{os.getpid()}@{_host()}."
+
+
+def _host():
+    import re
+    import socket
+
+    return re.sub(r"[^A-Za-z0-9-]", "-", socket.gethostname())[:64] or "host"
+
+
+def _process_is_gone(pid):
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return True
+    except OSError:  # another user's process, alive
+        return False
+    return False
+
+
+def remove_leftover_runs(out):
+    """Remove from ``out`` the temporary folders of :func:`run` whose process is gone (killed mid-way): those of
+    this host whose process no longer runs, and those that name no process and are older than
+    :data:`LEFTOVER_AGE_S`. A run in progress (here or, on a shared disk, on another host) keeps its folder."""
+    import re
+    import shutil
+    import time
+
+    named = re.compile(re.escape(RUN_TEMPORARY_PREFIX) + r"(\d+)@([A-Za-z0-9-]+)\.[A-Za-z0-9_]+")
+    for entry in out.glob(f"{RUN_TEMPORARY_PREFIX}*"):
+        if entry.is_symlink() or not entry.is_dir():
+            continue
+        match = named.fullmatch(entry.name)
+        if match:
+            leftover = match.group(2) == _host() and _process_is_gone(int(match.group(1)))
+        else:
+            try:
+                leftover = time.time() - entry.stat().st_mtime > LEFTOVER_AGE_S
+            except OSError:
+                continue
+        if leftover:
+            shutil.rmtree(entry, ignore_errors=True)
 
 
 def track_or_refusal(video, settings=None, ball=None):
