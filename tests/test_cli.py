@@ -450,3 +450,20 @@ def test_a_rerun_removes_the_temporary_folders_a_killed_run_left(tmp_path, capsy
     capsys.readouterr()
     assert sorted(path.name for path in out.iterdir()) == sorted([*RUN_FILES, folders["in progress"], folders["fresh"]])
 
+
+def test_a_misspelled_option_gets_the_one_meant_and_the_error_comes_first(tmp_path):
+    """``--ball-raduis-m``: "did you mean --ball-radius-m?"; a missing ``--out``: the error is the first line,
+    not after the 29 lines of ``dropfit run``'s usage (which ``--help`` shows)."""
+    result = dropfit("run", "log.csv", "--out", "x", "--ball-raduis-m", "0.02", cwd=tmp_path)
+    assert result.returncode == 2
+    assert result.stderr.splitlines() == ["dropfit run: error: unrecognized arguments: --ball-raduis-m 0.02; did you "
+                                          "mean --ball-radius-m?", "dropfit run --help lists every option"]
+    result = dropfit("run", "log.csv", "--ball-raduis-m=0.02", "--gravty-m-s2", "9.8", cwd=tmp_path)
+    assert result.returncode == 2
+    assert result.stderr.splitlines()[0] == "dropfit run: error: the following arguments are required: --out"
+    assert len(result.stderr.splitlines()) == 2
+    result = dropfit("run", "log.csv", "--out", "x", "--ball-raduis-m=0.02", "--gravty-m-s2", "9.8", cwd=tmp_path)
+    assert result.stderr.splitlines()[0].endswith("; --ball-raduis-m: did you mean --ball-radius-m?; --gravty-m-s2: "
+                                                  "did you mean --gravity-m-s2?")
+    assert "did you mean run?" in dropfit("rnu", "log.csv", cwd=tmp_path).stderr.splitlines()[0]
+    assert not any(tmp_path.iterdir())

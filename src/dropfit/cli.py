@@ -325,10 +325,48 @@ def _bound_values(argv):
 USAGE_MESSAGE_LIMIT = 600
 
 
+def _commands():
+    """Subcommand name → its parser."""
+    return next(action.choices for action in build_parser()._actions if isinstance(action, argparse._SubParsersAction))
+
+
+def _command_parser(argv):
+    """The subcommand's parser of ``argv`` (the first token that names a subcommand), or None."""
+    commands = _commands()
+    command = next((token for token in argv if token in commands or token == "--"), None)
+    return commands.get(command)
+
+
+def _did_you_mean(argv, error):
+    """argparse's message with the option (or command) meant, where one is given that it does not know: ``did you
+    mean --ball-radius-m?`` for ``--ball-raduis-m``."""
+    import difflib
+
+    message = str(error)
+    parser = _command_parser(argv)
+    if message.startswith("unrecognized arguments:") and parser is not None:
+        flags = [flag for action in parser._actions for flag in action.option_strings if flag.startswith("--")]
+        meant = []
+        for token in argv:
+            name = token.split("=", 1)[0]
+            if name.startswith("--") and name not in flags and name != "--":
+                close = difflib.get_close_matches(name, flags, n=1, cutoff=0.6)
+                meant += [(shown(name), close[0])] if close else []
+        if len(meant) == 1:
+            return f"{message}; did you mean {meant[0][1]}?"
+        return "; ".join([message, *(f"{name}: did you mean {flag}?" for name, flag in meant)])
+    if message.startswith("argument COMMAND: invalid choice:"):
+        given = next((token for token in argv if not token.startswith("-")), "")
+        close = difflib.get_close_matches(given, list(_commands()), n=1, cutoff=0.6)
+        return message + (f"; did you mean {close[0]}?" if close else "")
+    return message
+
+
 def _usage_failure(argv, error):
-    """A command line the parser refused: argparse's usage and message and exit status 2; under
-    ``--record-failure``, when the outputs can be read from the command line, its failure records
-    (status 0, as for any failed recording)."""
+    """A command line the parser refused: argparse's message first, with the option meant where one is misspelled
+    (:func:`_did_you_mean`), then where to read the options, and exit status 2; under ``--record-failure``, when
+    the outputs can be read from the command line, its failure records (status 0, as for any failed recording)."""
+    error = _UsageError(error.parser, _did_you_mean(argv, error))
     if "--record-failure" in argv:
         try:
             args, _ = build_parser(lenient=True).parse_known_args(argv)
@@ -347,8 +385,10 @@ def _usage_failure(argv, error):
                 print(f"dropfit: error: {one_line(str(unwritten))}", file=sys.stderr)
                 return 1
             return 0
-    error.parser.print_usage(sys.stderr)
-    print(f"{error.parser.prog}: error: {error}", file=sys.stderr)
+    parser = _command_parser(argv) or error.parser
+    print(f"{parser.prog}: error: {error}", file=sys.stderr)  # the line that matters first, not after the usage
+    usage = parser.format_usage()
+    print(usage.rstrip() if usage.count("\n") <= 3 else f"{parser.prog} --help lists every option", file=sys.stderr)
     return 2
 
 
