@@ -24,8 +24,8 @@ import warnings
 from pathlib import Path
 
 from . import __version__, stages
-from .errors import InputError, one_line, shown, shown_path
-from .files import write_failure
+from .errors import InputError, OutputError, one_line, shown, shown_path
+from .files import environment_message, write_failure
 from .heightlog import is_number
 from .settings import OPTIONS, OptionError, Settings, check_config, option_default, split_options
 
@@ -326,10 +326,48 @@ def _bound_values(argv):
 USAGE_MESSAGE_LIMIT = 600
 
 
+def _commands():
+    """Subcommand name → its parser."""
+    return next(action.choices for action in build_parser()._actions if isinstance(action, argparse._SubParsersAction))
+
+
+def _command_parser(argv):
+    """The subcommand's parser of ``argv`` (the first token that names a subcommand), or None."""
+    commands = _commands()
+    command = next((token for token in argv if token in commands or token == "--"), None)
+    return commands.get(command)
+
+
+def _did_you_mean(argv, error):
+    """argparse's message with the option (or command) meant, where one is given that it does not know: ``did you
+    mean --ball-radius-m?`` for ``--ball-raduis-m``."""
+    import difflib
+
+    message = str(error)
+    parser = _command_parser(argv)
+    if message.startswith("unrecognized arguments:") and parser is not None:
+        flags = [flag for action in parser._actions for flag in action.option_strings if flag.startswith("--")]
+        meant = []
+        for token in argv:
+            name = token.split("=", 1)[0]
+            if name.startswith("--") and name not in flags and name != "--":
+                close = difflib.get_close_matches(name, flags, n=1, cutoff=0.6)
+                meant += [(shown(name), close[0])] if close else []
+        if len(meant) == 1:
+            return f"{message}; did you mean {meant[0][1]}?"
+        return "; ".join([message, *(f"{name}: did you mean {flag}?" for name, flag in meant)])
+    if message.startswith("argument COMMAND: invalid choice:"):
+        given = next((token for token in argv if not token.startswith("-")), "")
+        close = difflib.get_close_matches(given, list(_commands()), n=1, cutoff=0.6)
+        return message + (f"; did you mean {close[0]}?" if close else "")
+    return message
+
+
 def _usage_failure(argv, error):
-    """A command line the parser refused: argparse's usage and message and exit status 2; under
-    ``--record-failure``, when the outputs can be read from the command line, its failure records
-    (status 0, as for any failed recording)."""
+    """A command line the parser refused: argparse's message first, with the option meant where one is misspelled
+    (:func:`_did_you_mean`), then where to read the options, and exit status 2; under ``--record-failure``, when
+    the outputs can be read from the command line, its failure records (status 0, as for any failed recording)."""
+    error = _UsageError(error.parser, _did_you_mean(argv, error))
     if "--record-failure" in argv:
         try:
             args, _ = build_parser(lenient=True).parse_known_args(argv)
@@ -341,11 +379,17 @@ def _usage_failure(argv, error):
             outputs = []
         if outputs:
             print(f"dropfit: error: {line}", file=sys.stderr)
-            for path in outputs:
-                write_failure(path, line, None)
+            try:
+                for path in outputs:
+                    write_failure(path, line, None)
+            except InputError as unwritten:  # the disk, or a file in the way
+                print(f"dropfit: error: {one_line(str(unwritten))}", file=sys.stderr)
+                return 1
             return 0
-    error.parser.print_usage(sys.stderr)
-    print(f"{error.parser.prog}: error: {error}", file=sys.stderr)
+    parser = _command_parser(argv) or error.parser
+    print(f"{parser.prog}: error: {error}", file=sys.stderr)  # the line that matters first, not after the usage
+    usage = parser.format_usage()
+    print(usage.rstrip() if usage.count("\n") <= 3 else f"{parser.prog} --help lists every option", file=sys.stderr)
     return 2
 
 
@@ -360,7 +404,7 @@ def main(argv=None):
     outputs = _outputs(args)
     before = {path: _stat(path) for path in outputs}
     keepable = {getattr(args, name) for name in _KEPT_ON_FAILURE.get(args.command, [])}
-    tracked = None
+    tracked, unwritable = None, False
     try:
         with warnings.catch_warnings():
             if not sys.warnoptions:  # numerical warnings are for developers (python -W shows them)
@@ -369,12 +413,17 @@ def main(argv=None):
     except InputError as error:
         message = one_line(str(error))
         tracked = getattr(error, "tracked", None)  # a video refused after tracking (dropfit run)
+        unwritable = isinstance(error, OutputError)
     except Exception as error:  # noqa: BLE001 — a bug, not the user's fault
-        # the traceback goes to the log (standard error); the line, the failure records and the batch
-        # summary name the input and the error only
-        traceback.print_exc()
-        message = one_line(f"{_input_name(args)}: internal error in dropfit {args.command} "
-                           f"({type(error).__name__}: {shown(error)}); please report it with this file")
+        environment = environment_message(error, outputs[0] if outputs else getattr(args, _INPUTS[args.command]))
+        if environment is not None:  # the user's disk or folders (an error no writer named): not a bug
+            message, unwritable = one_line(environment), True
+        else:
+            # the traceback goes to the log (standard error); the line, the failure records and the batch
+            # summary name the input and the error only
+            traceback.print_exc()
+            message = one_line(f"{_input_name(args)}: internal error in dropfit {args.command} "
+                               f"({type(error).__name__}: {shown(error)}); please report it with this file")
     else:
         return 0
     kept = {path for path in outputs if path in keepable and _stat(path) != before[path]}
@@ -384,9 +433,21 @@ def main(argv=None):
                 os.remove(path)
             except OSError:
                 pass
-    print(f"dropfit: error: {message}", file=sys.stderr)
-    if not record:
+    if not record or unwritable:  # an output that cannot be written: its failure record could not be either
+        print(f"dropfit: error: {message}", file=sys.stderr)
         return 1
+    try:
+        _write_failure_records(args, outputs, kept, message, tracked)
+    except InputError as error:  # the records cannot be written (the disk, a file in the way): one line says both
+        message += f" (and its failure records were not written: {one_line(str(error))})"
+        print(f"dropfit: error: {one_line(message)}", file=sys.stderr)
+        return 1
+    print(f"dropfit: error: {message}", file=sys.stderr)
+    return 0
+
+
+def _write_failure_records(args, outputs, kept, message, tracked):
+    """Under ``--record-failure``: a failure record carrying ``message`` in every output not ``kept``."""
     figure = _failure_figure(args)
     refused_video = args.command == "run" and tracked is not None
     drawn = {os.path.join(args.out, name) for name in ("track.csv", "contact_sheet.png")} if refused_video else set()
@@ -396,7 +457,6 @@ def main(argv=None):
     if refused_video:  # its tracked table and its frames drawn, under the refusal read from the records above
         figure = stages.record_refused_video(args.recording, args.out, tracked, message)
         write_failure(os.path.join(args.out, "report.html"), message, figure)
-    return 0
 
 
 def _failure_figure(args):

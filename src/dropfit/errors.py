@@ -27,6 +27,12 @@ class InputError(Exception):
     """
 
 
+class OutputError(InputError):
+    """An output that cannot be written because of the user's environment: a folder without write permission, a
+    read-only or full disk, a file where a folder belongs (:func:`dropfit.files.writing`). The message names the
+    path and what to do; no failure record is written (it would meet the same disk)."""
+
+
 class NotFreeFallError(InputError):
     """The flights of a recording do not fall with g: its units or scale are wrong, or (a video) what was
     tracked is not the ball in flight.

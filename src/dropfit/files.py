@@ -10,36 +10,147 @@ from __future__ import annotations
 
 import contextlib
 import csv
+import errno
 import hashlib
 import json
 import os
+import re
 import stat
 import tempfile
 import textwrap
 from pathlib import Path
 
-from .errors import InputError, one_line, shown, shown_path
+from .errors import InputError, OutputError, one_line, shown, shown_path
 
 FAILED = "failed"
 _UMASK = os.umask(0)
 os.umask(_UMASK)
 _CSV_FAILURE_PREFIX = "# dropfit failed: "
+#: A sample id, which names its folder ``<results>/<sample_id>/``: a plain name (letters, digits, ``_ . -``, the
+#: first a letter or digit), so that the folder lies inside the results and holds no folder of its own; not
+#: ``batch`` or ``logs``, the workflow's own folders there. The same pattern as the workflow's schema
+#: (workflow/schemas/samples.schema.yaml), which refuses such an id before any job.
+SAMPLE_ID_PATTERN = r"^(?!batch$|logs$)[A-Za-z0-9][A-Za-z0-9_.-]*$"
+SAMPLE_ID_ADVICE = "give it a plain name of letters, digits, _ . and - that starts with a letter or digit"
+
+
+def sample_id_problem(sample_id, results_dir="results"):
+    """Why ``sample_id`` cannot name a folder inside ``results_dir`` (:data:`SAMPLE_ID_PATTERN`): words to follow
+    ``sample_id '<id>'`` in a message, or None for a good id."""
+    if not isinstance(sample_id, str) or not sample_id.strip():
+        return "is empty"
+    if re.fullmatch(SAMPLE_ID_PATTERN, sample_id):
+        return None
+    if sample_id in ("batch", "logs"):
+        return f"is the name of the workflow's own folder {shown_path(os.path.join(results_dir, sample_id))}"
+    if os.path.isabs(sample_id) or any(
+            part == ".." for part in re.split(r"[/\\]", sample_id)):
+        return f"would put its files outside {shown_path(results_dir)}"
+    if re.search(r"[/\\]", sample_id):
+        return "is a path of folders, not a plain name"
+    return "is not a plain name"
+
+
+#: The start of the name of the temporary folder inside its ``--out`` in which ``dropfit run`` makes its files
+#: (:func:`dropfit.stages.run`); a message names a file there by the name it is moved to.
+RUN_TEMPORARY_PREFIX = ".dropfit-run."
+#: errno values of an operating-system error that is the user's environment (permissions, a read-only or full
+#: disk, a file where a folder belongs, a folder where a file belongs, a name too long), not a bug of dropfit.
+ENVIRONMENT_ERRNOS = frozenset(getattr(errno, name) for name in (
+    "EACCES", "EPERM", "EROFS", "ENOSPC", "EDQUOT", "ENOTDIR", "EISDIR", "EEXIST", "ENAMETOOLONG", "EFBIG", "EMLINK")
+    if hasattr(errno, name))
+#: What to do, by errno, for an output that cannot be written.
+_WRITE_ADVICE = {
+    errno.EACCES: "write into a folder you may write to, or change its permissions",
+    errno.EPERM: "write into a folder you may write to, or change its permissions",
+    errno.EROFS: "the disk is read-only: write to a folder on a writable disk",
+    errno.ENOSPC: "the disk is full: free space on it, or write to another disk",
+    getattr(errno, "EDQUOT", errno.ENOSPC): "your disk quota is used up: free space in it, or write elsewhere",
+    errno.EFBIG: "the file is larger than that disk takes: write to another disk",
+    errno.ENAMETOOLONG: "give a shorter path",
+}
+
+
+def _final_path(path):
+    """``path`` as the user knows it: a file in ``dropfit run``'s temporary folder named as the file it becomes."""
+    path = Path(path)
+    parts = [part for part in path.parts if not part.startswith(RUN_TEMPORARY_PREFIX)]
+    return Path(*parts) if parts else path
+
+
+def _file_in_the_way(path, folder):
+    """The nearest of ``path`` (when it is to be a ``folder``) and its parents that exists and is not a folder."""
+    for candidate in ([path] if folder else []) + list(path.parents):
+        if os.path.lexists(candidate):
+            return None if candidate.is_dir() else candidate
+    return None
+
+
+def unwritable(path, error, folder=False):
+    """The one-line message for an output ``path`` (a file; a ``folder`` of outputs) that cannot be written,
+    ``error`` the :class:`OSError`: the path, what the system said and what to do."""
+    path = _final_path(path)
+    if error.errno in (errno.ENOTDIR, errno.EEXIST, errno.ENOENT):
+        blocker = _file_in_the_way(path, folder)
+        if blocker is not None:
+            what = f" (for {shown_path(path)})" if blocker != path else ""
+            return (f"{shown_path(blocker)}: is a file where a folder is needed{what}; give another folder, or move "
+                    f"the file away")
+    if error.errno == errno.EISDIR:
+        return (f"{shown_path(path)}: is a folder where a file is to be written; give a file name, or move the "
+                f"folder away")
+    reason = (error.strerror or str(error) or type(error).__name__).lower()
+    advice = _WRITE_ADVICE.get(error.errno, "check the folder and the disk it is on")
+    return f"{shown_path(path)}: cannot be written ({shown(reason)}); {advice}"
+
+
+def environment_message(error, path):
+    """The one-line message of an :class:`OSError` that is the user's environment (:data:`ENVIRONMENT_ERRNOS`),
+    met where no writer named its file: ``path`` where the error names none; None for any other error."""
+    if not isinstance(error, OSError) or error.errno not in ENVIRONMENT_ERRNOS:
+        return None
+    if error.errno in (errno.EACCES, errno.EPERM):
+        name = shown_path(_final_path(error.filename or path))
+        return f"{name}: permission denied; check that you may read it and write into its folder"
+    return unwritable(error.filename or path, error)
+
+
+@contextlib.contextmanager
+def writing(path, folder=False):
+    """Within the block, an :class:`OSError` (a refused, read-only or full disk, a file in the way) is an
+    :class:`dropfit.errors.OutputError` naming the output ``path`` (a file, or a ``folder`` of outputs):
+    :func:`unwritable`."""
+    try:
+        yield
+    except OSError as error:
+        if error.errno is None:
+            raise
+        raise OutputError(one_line(unwritable(path, error, folder))) from None
 
 
 @contextlib.contextmanager
 def atomic_output(path):
-    """Yield a temporary path beside ``path``; rename it to ``path`` only if the block succeeds."""
+    """Yield a temporary path beside ``path``; rename it to ``path`` only if the block succeeds. An output that
+    cannot be written (its disk, its folder) is an :class:`dropfit.errors.OutputError` naming it (:func:`writing`)."""
     path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=path.suffix, dir=path.parent)
-    os.close(fd)
-    os.chmod(tmp, 0o666 & ~_UMASK)  # mkstemp makes the file private; outputs get the usual permissions
+    with writing(path):
+        path.parent.mkdir(parents=True, exist_ok=True)
+        fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=path.suffix, dir=path.parent)
+        os.close(fd)
     try:
-        yield Path(tmp)
-        os.replace(tmp, path)
+        try:
+            os.chmod(tmp, 0o666 & ~_UMASK)  # mkstemp makes the file private; outputs get the usual permissions
+        except OSError:  # a disk without permissions (FAT, some shares): the file is written all the same
+            pass
+        with writing(path):
+            yield Path(tmp)
+            os.replace(tmp, path)
     finally:
         if os.path.exists(tmp):
-            os.remove(tmp)
+            try:
+                os.remove(tmp)
+            except OSError:
+                pass
 
 
 def write_text(path, text):

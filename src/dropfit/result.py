@@ -355,10 +355,9 @@ def _sections(result):
         ("calibration", str(fit.get("calibration") or missing)),
         ("dropfit version", str(fit.get("dropfit_version"))),
     ])
-    time = result.trajectory["time"].values
     excluded = restitution.get("impacts_excluded") or []
     yield _lines([
-        ("samples", f"{time.size} over {time[-1] - time[0]:.4g} s, {attrs.get('n_dropouts', 0)} dropouts"),
+        ("samples", _samples_text(result.trajectory)),
         ("release", f"{_g(summary.get('release_time_s'), 4)} s ({summary.get('hand_samples', 0)} samples "
                     f"before it left out)"),
         ("left out", f"{summary.get('tracking_jump_samples', 0)} tracking-jump samples, "
@@ -432,6 +431,20 @@ def _sections(result):
                         f"{_g(limits.get('drop_height_m'))} m"), ("why", str(itf.get("why")))]
     yield _lines(rows)
     yield "\n".join(f"{number}. {note}" for number, note in enumerate(result.notes, 1)) or "none"
+
+
+def _samples_text(trajectory):
+    """The report's line on what was measured: a height log's or video's samples, a sound's impacts heard, a table's
+    impact times given (it has no samples: no ``time``)."""
+    impacts = trajectory["impact_time_s"].values if "impact_time_s" in trajectory else None
+    if "time" not in trajectory.coords and "time" not in trajectory:
+        span = f" over {impacts[-1] - impacts[0]:.4g} s" if impacts is not None and impacts.size else ""
+        return f"{0 if impacts is None else impacts.size} impact times given{span} (a table: no samples)"
+    time = trajectory["time"].values
+    span = f" over {time[-1] - time[0]:.4g} s" if time.size else ""
+    if impacts is not None:
+        return f"{time.size} envelope samples of the sound{span}, {impacts.size} impacts heard"
+    return f"{time.size}{span}, {trajectory.attrs.get('n_dropouts', 0)} dropouts"
 
 
 def _sound_and_picture_text(fusion):

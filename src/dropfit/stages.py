@@ -17,8 +17,9 @@ from pathlib import Path
 
 import yaml
 
-from .errors import InputError, one_line, shown, shown_path
-from .files import atomic_output, read_bytes, read_table, write_json, write_table, write_text
+from .errors import InputError, OutputError, one_line, shown, shown_path
+from .files import (RUN_TEMPORARY_PREFIX, SAMPLE_ID_ADVICE, atomic_output, environment_message, read_bytes, read_table,
+                    sample_id_problem, write_json, write_table, write_text, writing)
 from .fitrecord import analysis_summary, fit_summary
 from .heightlog import read_trajectory
 from .inputs import read_analysis, read_fit, read_flights, read_impacts, read_report_analysis
@@ -209,8 +210,11 @@ def run(recording, out_dir, ball=None, settings=None, sample_id=None, tracked=No
     fusion = result.fusion
     picture_refused = fusion is not None and fusion.picture_refusal is not None
     out = Path(out_dir)
-    out.mkdir(parents=True, exist_ok=True)
-    with tempfile.TemporaryDirectory(prefix=".dropfit-run.", dir=out) as directory:
+    with writing(out, folder=True):
+        out.mkdir(parents=True, exist_ok=True)
+        remove_leftover_runs(out)
+        temporary = tempfile.TemporaryDirectory(prefix=run_temporary_prefix(), dir=out)
+    with temporary as directory:
         made = {name: Path(directory) / name for name in (run_files(recording, settings) if video else RUN_FILES)}
         write_trajectory(made["trajectory.nc"], result.trajectory)
         write_analysis(result.analysis, result.trajectory.attrs, made["impacts.csv"], made["flights.csv"],
@@ -226,8 +230,62 @@ def run(recording, out_dir, ball=None, settings=None, sample_id=None, tracked=No
         report(made["trajectory.nc"], made["flights.csv"], made["impacts.csv"], made["analysis.json"],
                made["fit.json"], made["report.html"], made["report.png"], made.get("contact_sheet.png"))
         for name, path in made.items():
-            os.replace(path, out / name)
+            with writing(out / name):
+                os.replace(path, out / name)
     return result
+
+
+#: Seconds after which a temporary folder of ``dropfit run`` that names no process (made by a dropfit before the
+#: names held one) is taken for what a killed run left.
+LEFTOVER_AGE_S = 3600.0  # s
+
+
+def run_temporary_prefix():
+    """The start of the name of :func:`run`'s temporary folder: :data:`dropfit.files.RUN_TEMPORARY_PREFIX`, the
+    process id and the host (``.dropfit-run.<pid>@<host>.``), so that a later run can tell one left by a killed
+    process from one in use."""
+    return f"{RUN_TEMPORARY_PREFIX}{os.getpid()}@{_host()}."
+
+
+def _host():
+    import re
+    import socket
+
+    return re.sub(r"[^A-Za-z0-9-]", "-", socket.gethostname())[:64] or "host"
+
+
+def _process_is_gone(pid):
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return True
+    except OSError:  # another user's process, alive
+        return False
+    return False
+
+
+def remove_leftover_runs(out):
+    """Remove from ``out`` the temporary folders of :func:`run` whose process is gone (killed mid-way): those of
+    this host whose process no longer runs, and those that name no process and are older than
+    :data:`LEFTOVER_AGE_S`. A run in progress (here or, on a shared disk, on another host) keeps its folder."""
+    import re
+    import shutil
+    import time
+
+    named = re.compile(re.escape(RUN_TEMPORARY_PREFIX) + r"(\d+)@([A-Za-z0-9-]+)\.[A-Za-z0-9_]+")
+    for entry in out.glob(f"{RUN_TEMPORARY_PREFIX}*"):
+        if entry.is_symlink() or not entry.is_dir():
+            continue
+        match = named.fullmatch(entry.name)
+        if match:
+            leftover = match.group(2) == _host() and _process_is_gone(int(match.group(1)))
+        else:
+            try:
+                leftover = time.time() - entry.stat().st_mtime > LEFTOVER_AGE_S
+            except OSError:
+                continue
+        if leftover:
+            shutil.rmtree(entry, ignore_errors=True)
 
 
 def track_or_refusal(video, settings=None, ball=None):
@@ -421,6 +479,8 @@ def read_sample_sheet(path):
     for column, default in (("ball_id", sheet["sample_id"]), ("batch", "unbatched")):
         sheet[column] = (sheet[column] if column in sheet.columns else pd.Series(index=sheet.index, dtype=str)
                          ).fillna(default)
+    if len(lines) - 1 == len(sheet):  # the line of the file each row is on, for messages (a quoted cell may span two)
+        sheet.attrs["line_numbers"] = [number for number, _ in lines[1:]]
     return sheet
 
 
@@ -469,20 +529,40 @@ def run_batch(sheet_path, results_dir, config=None, sample_ids=None, say=print):
                          f"give sample ids of the sheet")
     failed = {}
     for sample_id in sample_ids:
+        problem = sample_id_problem(sample_id, str(results_dir))
+        if problem is not None:  # its files would lie outside results_dir (or in a folder of its own): none is written
+            failed[sample_id] = _bad_sample_id(sheet, sheet_path, sample_id, problem)
+            say(f"{shown(sample_id)}: failed: {failed[sample_id]}")
+            continue
         row = sheet.loc[sample_id]
         out = Path(results_dir) / sample_id
-        message, tracked = _run_row(row, out, config or {}, say)
+        message, tracked, recordable = _run_row(row, out, config or {}, say)
         if message is None:
             continue
+        try:  # (not where its files could not be written: the records would meet the same disk)
+            if recordable:
+                _record_failure(row, out, message, tracked)
+        except InputError as error:  # its folder cannot be written (the disk, a file in the way): the batch goes on
+            message = one_line(f"{message} (and its failure records were not written: {one_line(str(error))})")
         failed[sample_id] = message
-        _record_failure(row, out, message, tracked)
         say(f"{sample_id}: failed: {message}")
     return failed
 
 
+def _bad_sample_id(sheet, sheet_path, sample_id, problem):
+    """The one line refusing the row of ``sample_id``, whose id cannot name a folder of the results (``problem``,
+    :func:`dropfit.files.sample_id_problem`)."""
+    numbers = sheet.attrs.get("line_numbers")
+    position = [index for index, value in enumerate(sheet.index) if value is sample_id or value == sample_id]
+    where = f"line {numbers[position[0]]}" if numbers and position else "a row"
+    return one_line(f"{shown_path(sheet_path)}: {where}: sample_id '{shown(sample_id)}' {problem}; {SAMPLE_ID_ADVICE} "
+                    f"(it names the folder of the recording's files)")
+
+
 def _run_row(row, out, config, say):
-    """Run one sample-sheet row into ``out``: (None, None) when done, else (reason, the video's tracked
-    table if it was tracked before the failure)."""
+    """Run one sample-sheet row into ``out``: (None, None, False) when done, else (reason, the video's tracked
+    table if it was tracked before the failure, whether failure records may be written: not where an output
+    could not be written)."""
     import traceback
 
     from .settings import OptionError, settings_from_config
@@ -501,13 +581,16 @@ def _run_row(row, out, config, say):
             say(run(path, out, ball, settings, row["sample_id"], tracking_refusal=refusal).summary())
         else:
             say(run(path, out, ball, settings, row["sample_id"], tracked).summary())
-        return None, None
+        return None, None, False
     except InputError as error:
-        return one_line(str(error)), tracked
+        return one_line(str(error)), tracked, not isinstance(error, OutputError)
     except Exception as error:  # noqa: BLE001 — a bug: the traceback to the log, the batch goes on
+        environment = environment_message(error, out)
+        if environment is not None:  # the user's disk or folders, not a bug
+            return one_line(environment), tracked, False
         traceback.print_exc()
         return one_line(f"{shown_path(path)}: internal error in dropfit ({type(error).__name__}: {shown(error)}); "
-                        f"please report it with this file"), tracked
+                        f"please report it with this file"), tracked, True
 
 
 def _record_failure(row, out, message, tracked):

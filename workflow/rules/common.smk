@@ -263,8 +263,9 @@ def qc_args(wildcards):
 # --- handlers ----------------------------------------------------------------------------------
 
 #: A temporary file of dropfit's (``.<name>.<random><suffix>`` beside its output) or directory
-#: (``.dropfit-run.<random>``), left behind only by a job that was killed.
-TEMPORARY = re.compile(r"^\.(dropfit-run\.[a-z0-9_]{8}|.+\.[a-z0-9_]{8}(\.[A-Za-z0-9]+)?)$")
+#: (``.dropfit-run.<pid>@<host>.<random>``; ``.dropfit-run.<random>`` of an older dropfit), left behind only by a
+#: job that was killed.
+TEMPORARY = re.compile(r"^\.(dropfit-run\.(\d+@[A-Za-z0-9-]+\.)?[a-z0-9_]{8}|.+\.[a-z0-9_]{8}(\.[A-Za-z0-9]+)?)$")
 
 
 def remove_leftovers():
