@@ -17,6 +17,7 @@ output the failed stage had begun to write is removed: outputs are whole or abse
 from __future__ import annotations
 
 import argparse
+import difflib
 import os
 import sys
 import traceback
@@ -341,7 +342,6 @@ def _command_parser(argv):
 def _did_you_mean(argv, error):
     """argparse's message with the option (or command) meant, where one is given that it does not know: ``did you
     mean --ball-radius-m?`` for ``--ball-raduis-m``."""
-    import difflib
 
     message = str(error)
     parser = _command_parser(argv)

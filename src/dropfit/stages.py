@@ -11,8 +11,12 @@ same files.
 from __future__ import annotations
 
 import os
+import re
+import shutil
+import socket
 import sys
 import tempfile
+import time
 from pathlib import Path
 
 import yaml
@@ -248,9 +252,6 @@ def run_temporary_prefix():
 
 
 def _host():
-    import re
-    import socket
-
     return re.sub(r"[^A-Za-z0-9-]", "-", socket.gethostname())[:64] or "host"
 
 
@@ -268,10 +269,6 @@ def remove_leftover_runs(out):
     """Remove from ``out`` the temporary folders of :func:`run` whose process is gone (killed mid-way): those of
     this host whose process no longer runs, and those that name no process and are older than
     :data:`LEFTOVER_AGE_S`. A run in progress (here or, on a shared disk, on another host) keeps its folder."""
-    import re
-    import shutil
-    import time
-
     named = re.compile(re.escape(RUN_TEMPORARY_PREFIX) + r"(\d+)@([A-Za-z0-9-]+)\.[A-Za-z0-9_]+")
     for entry in out.glob(f"{RUN_TEMPORARY_PREFIX}*"):
         if entry.is_symlink() or not entry.is_dir():
