@@ -30,6 +30,7 @@ before the colour channels are formed.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, fields
 from functools import cached_property
 
@@ -307,13 +308,25 @@ BLEND_TOLERANCE = 0.15
 MIN_BLEND_TOLERANCE = 12.0
 #: Opening that keeps only skin-coloured areas broader than a ball's blended rim.
 HAND_OPENING = np.ones((5, 5), np.uint8)
+#: A skin-coloured area that is a lone disc is a ball of a skin-like colour (crimson, orange, pink: inside the skin
+#: ranges), not a hand, which has fingers, a wrist and an arm, and reaches in from the image's border. A lone disc as
+#: the whole-frame search judges one (:func:`dropfit.video.detect.find_blobs`): its convex hull (a highlight can cut a
+#: notch into the ball's colour) holds at most this multiple of its largest inscribed circle's area, plus a
+#: perimeter's worth ...
+ROUND_FILL_RATIO = 1.3
+#: ... the area fills at least this fraction of its hull (a thumb and fingers curled about nothing do not) ...
+ROUND_SOLIDITY = 0.8
+#: ... and at least this fraction of the ring ROUND_RING_PX beyond it is the scene or a blend of the scene with the
+#: disc's colour (its blurred rim): a ball alone before the scene, its shadow under part of it. The warm-lit side of
+#: a white ball above a wooden table is a compact skin-coloured patch too, amid the ball's white.
+ROUND_ALONE_FRACTION = 0.5
+ROUND_RING_PX = 3
 
 
 def skin_mask(frame):
-    """Which pixels of a BGR uint8 frame (window) are skin-coloured: a hand, not a ball.
-
-    Balls are white, black or saturated (yellow, green, red, orange, blue): none falls in the skin
-    ranges ``SKIN_CR``, ``SKIN_CB``; a hand holding the ball does, whatever the brightness.
+    """Which pixels of a BGR uint8 frame (window) are skin-coloured (``SKIN_CR``, ``SKIN_CB``): a hand, whatever
+    the brightness, or a ball of a skin-like colour (crimson, orange, pink; :func:`hand_pixels` tells them apart by
+    shape). White, black, yellow, green, blue and pure red balls fall outside the ranges.
 
     Returns
     -------
@@ -348,10 +361,10 @@ def _ball_blend(frame, background_colour, ball_bgr):
 
 def hand_pixels(frame, background_colour, ball_bgr=None, min_area_px=0.0):
     """Pixels of a BGR frame (window) that are skin-coloured where the background is not, and differ from
-    it in hue by more than ``HAND_MIN_CHROMA``: a hand (areas at least 5 px across: ``HAND_OPENING``).
-    With the ball's colour ``ball_bgr`` known, blends of it with the background are not; with
-    ``min_area_px``, only skin-coloured areas at least that large, or reaching the window's border,
-    count (a hand is larger than the ball).
+    it in hue by more than ``HAND_MIN_CHROMA``: a hand (areas at least 5 px across: ``HAND_OPENING``), but for
+    lone discs clear of the window's border (``ROUND_FILL_RATIO``): balls of a skin-like colour. With the ball's
+    colour ``ball_bgr`` known, blends of it with the background are not; with ``min_area_px``, only skin-coloured
+    areas at least that large, or reaching the window's border, count (a hand is larger than the ball).
 
     Returns
     -------
@@ -378,6 +391,8 @@ def hand_pixels(frame, background_colour, ball_bgr=None, min_area_px=0.0):
     # a ball's anti-aliased rim blends its colour with the wall's into skin-like tones, a ring at most
     # two pixels wide; a hand is broader
     hand = cv2.morphologyEx(hand, cv2.MORPH_OPEN, HAND_OPENING)
+    if hand.any():
+        hand = _without_lone_discs(hand, frame, scene)
     if min_area_px > 0 and hand.any():
         # the shaded side of a red or orange ball is skin-coloured too, but smaller than the ball
         _, labels, stats = connected_components(hand)[:3]
@@ -387,6 +402,43 @@ def hand_pixels(frame, background_colour, ball_bgr=None, min_area_px=0.0):
         large = np.flatnonzero((area >= min_area_px) | at_border)
         return np.isin(labels, large[large > 0])
     return hand.astype(bool)
+
+
+def _without_lone_discs(hand, frame, scene):
+    """A uint8 skin mask of a BGR ``frame`` without its lone discs alone before the :class:`SceneColour` ``scene``
+    and clear of the mask's border (``ROUND_FILL_RATIO``): balls of a skin-like colour, not hands."""
+    contours, _ = cv2.findContours(hand, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
+    discs = []
+    grow = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * ROUND_RING_PX + 1,) * 2)
+    for contour in contours:
+        x0, y0, width, height = cv2.boundingRect(contour)
+        if x0 == 0 or y0 == 0 or x0 + width == hand.shape[1] or y0 + height == hand.shape[0]:
+            continue  # goes on beyond the window: an arm
+        hull = np.zeros((height + 2, width + 2), np.uint8)  # a pixel of margin for the distance transform
+        cv2.drawContours(hull, [cv2.convexHull(contour)], -1, 1, thickness=-1, offset=(1 - x0, 1 - y0))
+        hull_area = np.count_nonzero(hull)
+        inscribed = float(cv2.distanceTransform(hull, cv2.DIST_L2, cv2.DIST_MASK_PRECISE).max())
+        area = np.count_nonzero(hand[y0:y0 + height, x0:x0 + width] & hull[1:-1, 1:-1])
+        if (area < ROUND_SOLIDITY * hull_area
+                or hull_area > ROUND_FILL_RATIO * math.pi * inscribed ** 2 + 2 * math.pi * inscribed):
+            continue
+        # the disc and the ring about it, in a box ROUND_RING_PX larger (within the frame)
+        left, top = max(x0 - ROUND_RING_PX, 0), max(y0 - ROUND_RING_PX, 0)
+        right = min(x0 + width + ROUND_RING_PX, hand.shape[1])
+        bottom = min(y0 + height + ROUND_RING_PX, hand.shape[0])
+        disc = np.zeros((bottom - top, right - left), np.uint8)
+        cv2.drawContours(disc, [contour], -1, 1, thickness=-1, offset=(-left, -top))
+        rows, columns = np.nonzero(cv2.dilate(disc, grow) & (1 - disc))
+        box = frame[top:bottom, left:right]
+        colour = np.median(box[disc.astype(bool)], axis=0)
+        blend = _ball_blend(box[rows, columns], scene.at(rows + top, columns + left), colour)
+        if blend.mean() >= ROUND_ALONE_FRACTION:
+            discs.append(contour)
+    if not discs:
+        return hand
+    hand = hand.copy()
+    cv2.drawContours(hand, discs, -1, 0, thickness=-1)
+    return hand
 
 
 def chromaticity(bgr):

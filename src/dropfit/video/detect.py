@@ -79,6 +79,14 @@ from .quality import (QUALITY_BLURRED, QUALITY_DUPLICATE, QUALITY_LOST, QUALITY_
 #: A blob whose chromaticity is farther than this from the ball's given colour is not the ball (the share
 #: of a channel in the sum: a red ball is about (0.14, 0.14, 0.71), a green one (0.2, 0.6, 0.2)).
 MAX_CHROMATICITY_DISTANCE = 0.15
+#: A camera renders a coloured ball paler than its name (its sheen, the ambient light, blur with the wall: the colour
+#: mixed with grey), so a blob whose chromaticity lies off the given colour's towards grey is the ball too when its
+#: hue is the given one's (within MAX_CHROMATICITY_DISTANCE across the line from grey to the colour) and it keeps at
+#: least this share of the colour's saturation (its distance from grey): a crimson ball filmed dark is "red", a pale
+#: red (skin, for a red or an orange ball) or a grey shadow is not.
+MIN_SATURATION_SHARE = 0.5
+#: The chromaticity of grey.
+NEUTRAL_CHROMATICITY = np.full(3, 1.0 / 3.0)
 
 #: Smallest ball radius the tracker looks for, px.
 MIN_RADIUS_PX = 2.0
@@ -826,6 +834,23 @@ def off_fixtures(blobs, fixtures):
             if not any(math.hypot(blob[0] - x, blob[1] - y) <= max(r, blob[2]) for x, y, r in fixtures)]
 
 
+def colour_matches(bgr, wanted_bgr):
+    """Whether a blob's colour ``bgr`` is the ball's given colour ``wanted_bgr`` (BGR levels): its chromaticity
+    (:func:`dropfit.video.contrast.chromaticity`) within ``MAX_CHROMATICITY_DISTANCE`` of the given one's, or of
+    the given one's mixed with grey down to ``MIN_SATURATION_SHARE`` of its saturation."""
+    colour, wanted = chromaticity(bgr), chromaticity(wanted_bgr)
+    if np.linalg.norm(colour - wanted) <= MAX_CHROMATICITY_DISTANCE:
+        return True
+    saturation = wanted - NEUTRAL_CHROMATICITY
+    power = float(saturation @ saturation)
+    if power <= MAX_CHROMATICITY_DISTANCE ** 2:  # a grey, white or black ball: no hue to keep
+        return False
+    offset = colour - NEUTRAL_CHROMATICITY
+    share = float(offset @ saturation) / power
+    return share >= MIN_SATURATION_SHARE and float(np.linalg.norm(offset - share * saturation)) <= (
+        MAX_CHROMATICITY_DISTANCE)
+
+
 def find_ball(frame, background, contrast, expected_radius_px=None, gain=1.0, fixtures=(), colour_bgr=None):
     """Search a whole frame for the ball: of the blobs of :func:`find_blobs`, lone discs and light balls merged
     with their shadows before other merged blobs, then the radius nearest the expected one (without one, the
@@ -833,8 +858,7 @@ def find_ball(frame, background, contrast, expected_radius_px=None, gain=1.0, fi
 
     ``fixtures`` are blobs that stay in one place in the whole clip (x, y, radius in px): blobs
     centred within a radius of one are not the ball. With the ball's colour ``colour_bgr`` (BGR
-    levels) given, a blob whose centre's chromaticity (:func:`dropfit.video.contrast.chromaticity`)
-    is farther than ``MAX_CHROMATICITY_DISTANCE`` from it is not the ball.
+    levels) given, a blob whose centre's colour does not match it (:func:`colour_matches`) is not the ball.
 
     Returns
     -------
@@ -843,9 +867,7 @@ def find_ball(frame, background, contrast, expected_radius_px=None, gain=1.0, fi
     """
     blobs = off_fixtures(find_blobs(frame, background, contrast, expected_radius_px, gain), fixtures)
     if colour_bgr is not None and frame.ndim == 3:
-        wanted = chromaticity(colour_bgr)
-        blobs = [blob for blob in blobs
-                 if np.linalg.norm(chromaticity(_centre_colour(frame, blob)) - wanted) <= MAX_CHROMATICITY_DISTANCE]
+        blobs = [blob for blob in blobs if colour_matches(_centre_colour(frame, blob), colour_bgr)]
     if not blobs:
         return None
     return max(blobs, key=lambda blob: (blob[3] or blob[4], -abs(blob[2] - expected_radius_px)

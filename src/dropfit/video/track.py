@@ -235,7 +235,7 @@ class BallTracker:
     @property
     def ball_bgr(self):
         """The ball's colour, BGR levels: the median at the centre of the balls recently measured whose
-        centre is not skin-coloured (None before)."""
+        centre is not skin-coloured, or that were measured alone (None before)."""
         return self._ball_bgr
 
     @property
@@ -306,8 +306,6 @@ class BallTracker:
                               edges, motion_px, self._radius_spread, self._shaded_radius_px)
         if result is None:
             return None
-        if window.ndim == 3:
-            self._learn_colour(window, result)
         if result.quality != QUALITY_OCCLUDED and hand is not None and hand.any():
             # a hand touching the ball hides part of it, whether or not it shows in this channel
             rows, columns = np.nonzero(hand)
@@ -315,11 +313,14 @@ class BallTracker:
             if np.any((columns - result.x_px) ** 2 + (rows - result.y_px) ** 2 <= reach * reach):
                 result = replace(result, quality=QUALITY_OCCLUDED)
                 self._hand_touch = True
+        if window.ndim == 3:
+            self._learn_colour(window, result)
         return replace(result, x_px=result.x_px + x0, y_px=result.y_px + y0)
 
     def _learn_colour(self, window, result):
         """Take the ball's colour from a BGR window where it was measured (``result``, window px): the median
-        of the pixels within half a radius of its centre, the frame's gain divided out, unless skin-coloured."""
+        of the pixels within half a radius of its centre, the frame's gain divided out, unless skin-coloured
+        where the ball was not measured alone (``ok`` or ``blurred``: a lone disc is no hand)."""
         reach = abs(0.5 * result.radius_px)
         height, width = window.shape[:2]
         left, top, right, bottom = 0, 0, width, height
@@ -333,8 +334,11 @@ class BallTracker:
         if not core.any():
             return
         centre = fast_median(window[top:bottom, left:right][core])
-        # a ball's centre, not a hand's: held or blurred balls teach the colour too
-        if not skin_mask(np.clip(np.rint(centre), 0, 255).astype(np.uint8).reshape(1, 1, 3))[0, 0]:
+        # a ball's centre, not a hand's: held or blurred balls teach the colour too; a skin-coloured centre is a
+        # ball's only where it is a lone disc (a crimson ball's colour lies in the skin ranges; without it learnt,
+        # its blends with the wall are taken for a hand)
+        alone = result.quality in (QUALITY_OK, QUALITY_BLURRED)
+        if alone or not skin_mask(np.clip(np.rint(centre), 0, 255).astype(np.uint8).reshape(1, 1, 3))[0, 0]:
             self._ball_colours = (self._ball_colours + [centre / self._gain])[-15:]
             self._ball_bgr = tuple(fast_median(np.array(self._ball_colours)))
 
