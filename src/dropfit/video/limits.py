@@ -17,7 +17,10 @@ analysis measure, never the ground truth:
   and n alone, so a flight too poorly filmed costs the two impacts beside it (each keeps its row, with no e
   and the reason), never the others; the recording is refused only when no impact is measured, with each
   impact's reason. The fraction of clean frames is judged per flight: a hand holding the ball, an occlusion
-  in one flight or an empty scene after the drop says nothing about the other flights.
+  in one flight or an empty scene after the drop says nothing about the other flights. A flight of
+  :data:`MIN_FRAME_INTERVALS_PER_FLIGHT` to :data:`DENSE_FRAME_INTERVALS_PER_FLIGHT` frame intervals (a phone
+  clip at 20–30 frames/s) is measured from fewer clean frames, and its impacts' e carries the error so sparse a
+  sampling makes (:func:`sparse_flight_e_se`, measured by ``benchmarks/sparse_flight_sweep.py``), with a note.
 
 The centre noise relative to the travel (also measured, for the sweep's table) sets no limit: it
 stayed under 5 × 10⁻³ wherever the tracker found the ball, was 1 × 10⁻⁴ in the clips whose e was
@@ -38,6 +41,7 @@ import numpy as np
 import pandas as pd
 
 from ..analysis import estimate_noise, se_column_name
+from ..analysis.tables import Z95
 from ..errors import InputError, shown_path
 from ..physics import STANDARD_GRAVITY_M_S2
 from .calibrate import slow_motion_reading
@@ -54,20 +58,47 @@ MIN_BALL_RADIUS_PX = 2.0
 #: ball drawn with radius 1–1.5 px, tracked in 30–41 % of the frames, gave e₁ 7 standard errors off
 #: once (38 %) and 2.4 once (33 %). The sweep's table was run with the earlier limit of 30 %.
 MIN_CLEAN_FRACTION = 0.45
-#: Fewest frame intervals a flight around an impact must last (the drop: from its apex, the release,
-#: to touchdown; a bounce: from lift-off to touchdown). Sweep (blurred frames measured): a fall of 6.1
-#: frame intervals (15 frames/s) gave e₁ off by 3 × 10⁻³ (18 standard errors); falls of 7.8–12.5
-#: intervals (20 and 30 frames/s) were within 8 × 10⁻⁴ and 1.8 standard errors, and every fall of
+#: Frame intervals a flight around an impact lasts from which its impact needs no widening of e's interval (the
+#: drop: from its apex, the release, to touchdown; a bounce: from lift-off to touchdown). Sweep (blurred frames
+#: measured): a fall of 6.1 frame intervals (15 frames/s) gave e₁ off by 3 × 10⁻³ (18 standard errors); falls of
+#: 7.8–12.5 intervals (20 and 30 frames/s) were within 8 × 10⁻⁴ and 1.8 standard errors, and every fall of
 #: ≥ 15.6 intervals (40 frames/s and up) within 1.0 × 10⁻⁴. The independent phone-clip generator agrees
 #: at 30 frames/s (tests/test_phone_clips.py). It is the flight that must be sampled densely, not the
 #: clip: a high-speed close-up films only the last milliseconds of a long fall.
-MIN_FRAME_INTERVALS_PER_FLIGHT = 8
+DENSE_FRAME_INTERVALS_PER_FLIGHT = 8
+#: Fewest frame intervals a flight around an impact must last for the impact to be measured at all; from here to
+#: :data:`DENSE_FRAME_INTERVALS_PER_FLIGHT` its e's interval is widened by :func:`sparse_flight_e_se`. The sweep
+#: (``benchmarks/sparse_flight_sweep.py``) found e from flights of 5-8 intervals inside its widened interval at the
+#: stated rate (below); a flight of 5 intervals holds at best the 5 clean frames a flight's parabola is fitted from
+#: (:data:`MIN_CLEAN_FRAMES_PER_SPARSE_FLIGHT`), a shorter one fewer: the sweep's analyses fitted none under 5.
+MIN_FRAME_INTERVALS_PER_FLIGHT = 5
+#: Relative error of the impact speed measured from a drop (the fall from its release, a hand's, to impact 1) of
+#: fewer than :data:`DENSE_FRAME_INTERVALS_PER_FLIGHT` frame intervals, beyond its fit's standard error (see
+#: :func:`sparse_flight_e_se`). Sweep (``benchmarks/sparse_flight_sweep.py``, term off): phonesim's clips, a hand
+#: releasing the ball, 37 impacts 1 after a fall of 5-8 intervals: 36 inside the fit's 95 % interval, but one fall of
+#: 6.1 intervals (the white ball, 30 Hz in a 60 fps MOV) gave e₁ 0.023 low, 8.7 standard errors, and the rms of
+#: (e − e_true) / se was 1.5 (2.5 for falls of 6-7 intervals); this term, the least that makes that rms 1, brings
+#: falls of 6-7 intervals to rms 1.6 and leaves the others' coverage at 100 %. refsim's drops sampled without a
+#: hand (51) needed none (rms 0.66, 98 % covered): it is the hand's release, seen in few frames, that a sparse fall
+#: gets wrong.
+SPARSE_DROP_SPEED_RELATIVE_SE = 0.0036
+#: The same for a bounce's flight (from a lift-off to a touchdown) of fewer than
+#: :data:`DENSE_FRAME_INTERVALS_PER_FLIGHT` intervals. Sweep: none is needed. Impacts beside a bounce of 5-8
+#: intervals were inside the fit's 95 % interval 87 of 87 times on phonesim's clips (rms z 0.6-0.7 in each interval
+#: bin) and 169 of 174 on refsim's sampled drops (96.7-98.7 % per bin, rms z 0.64-0.90): the fit's standard error,
+#: larger from fewer samples, carries the sparse sampling.
+SPARSE_BOUNCE_SPEED_RELATIVE_SE = 0.0
 #: Fewest clean frames in each of the two flights around an impact. Sweep: 7–8 clean frames before
 #: impact 1 (20 frames/s) gave e₁ within 1.3 × 10⁻⁴, 5 (15 frames/s) once 3 × 10⁻³ off; on the phone-clip
 #: generator at 30 frames/s a fall seen cleanly in 6 frames (the rest behind a hand or blurred) gave e₁
 #: 3 standard errors off, and 7 or more were right. The 1000 frames/s close-up sees 12 clean frames
 #: before its contact and gives e within 5 × 10⁻⁵ (tests/test_videolog.py).
 MIN_CLEAN_FRAMES_PER_FLIGHT = 7
+#: Fewest clean frames in a flight shorter than :data:`DENSE_FRAME_INTERVALS_PER_FLIGHT` frame intervals: one that
+#: short holds fewer than :data:`MIN_CLEAN_FRAMES_PER_FLIGHT` frames clear of its contacts however well it is filmed
+#: (5 in flights of 5.5-7 intervals of the phone-clip generator's 20 frames/s clips), and its parabola is fitted from
+#: as few as the analysis fits any flight from; the sparse sampling's error is carried by :func:`sparse_flight_e_se`.
+MIN_CLEAN_FRAMES_PER_SPARSE_FLIGHT = 5
 #: Columns of an impact that the flight before it decides (with their se and interval): NaN where that
 #: flight is too poorly filmed (:func:`select_resolved_impacts`). The flights' own apex heights and durations
 #: (``h_before_m``, ``h_after_m``, ``flight_time_after_s``) keep their fitted values and standard errors.
@@ -168,7 +199,7 @@ def not_free_fall(source, acceleration_m_s2, trajectory):
     """The refusal of a video whose tracked flights do not fall with g: what the tracker measured.
 
     When the ball was measured in most frames (:data:`WELL_TRACKED_FRACTION`) and the whole height
-    covered would be fallen in fewer than :data:`MIN_FRAME_INTERVALS_PER_FLIGHT` frame intervals, the
+    covered would be fallen in fewer than :data:`DENSE_FRAME_INTERVALS_PER_FLIGHT` frame intervals, the
     flights are too sparsely sampled to be told apart from their impacts, and the refusal says so (with
     the frame rate that would do). When the capture rate was inferred from the flights' curvature in the
     file's time (``capture_fps_source`` in the trajectory's attributes), it names that rate first: flights
@@ -204,11 +235,13 @@ def not_free_fall(source, acceleration_m_s2, trajectory):
         return f"{said}; it {slow}"
     if slow:
         said = f"{said}; if it was tracked right, it {slow}; else"
-    sparse = np.isfinite(interval_s) and interval_s > 0 and fall_s < MIN_FRAME_INTERVALS_PER_FLIGHT * interval_s
+    # (a fall that the analysis could not tell from its impacts: fewer intervals than a flight needs to be measured
+    # without widening, DENSE_FRAME_INTERVALS_PER_FLIGHT, is the likely cause)
+    sparse = np.isfinite(interval_s) and interval_s > 0 and fall_s < DENSE_FRAME_INTERVALS_PER_FLIGHT * interval_s
     if well_tracked and sparse:
-        needed = math.ceil(MIN_FRAME_INTERVALS_PER_FLIGHT / fall_s) if fall_s > 0 else math.inf
+        needed = math.ceil(DENSE_FRAME_INTERVALS_PER_FLIGHT / fall_s) if fall_s > 0 else math.inf
         return (f"{said}: a fall over that height lasts {fall_s / interval_s:.1f} frame intervals at "
-                f"{1.0 / interval_s:.3g} frames/s, fewer than the {MIN_FRAME_INTERVALS_PER_FLIGHT} a flight needs "
+                f"{1.0 / interval_s:.3g} frames/s, fewer than the {DENSE_FRAME_INTERVALS_PER_FLIGHT} a flight needs "
                 f"to be told from its impacts; film at {needed:g} frames/s or more (slow motion), or drop from higher")
     if str(trajectory.attrs.get("capture_fps_source", "")).startswith(GRAVITY_CAPTURE_RATE_SOURCE):
         # the rate came from flights found in the file's time: found wrongly, they give a wrong rate too
@@ -298,15 +331,18 @@ def _flight_problem(side, span, clean, frame_interval_s, share_judged=True):
     the clip as a whole is measured cleanly enough (:func:`clean_share`) for its flights' clean share not to matter."""
     rate = 1.0 / frame_interval_s
     if span < MIN_FRAME_INTERVALS_PER_FLIGHT:
-        needed = math.ceil(rate * MIN_FRAME_INTERVALS_PER_FLIGHT / span) if span > 0 else math.inf
+        # (the rate that films it densely: its e then needs no widening, sparse_flight_e_se)
+        needed = math.ceil(rate * DENSE_FRAME_INTERVALS_PER_FLIGHT / span) if span > 0 else math.inf
         return (f"the flight {side} it lasts {span:.1f} frame intervals at {rate:.3g} frames/s, fewer than the "
                 f"{MIN_FRAME_INTERVALS_PER_FLIGHT} a flight needs to be told from its impacts",
                 f"film at {needed:g} frames/s or more, in slow motion")
-    if clean < MIN_CLEAN_FRAMES_PER_FLIGHT:
+    least = MIN_CLEAN_FRAMES_PER_FLIGHT if span >= DENSE_FRAME_INTERVALS_PER_FLIGHT \
+        else MIN_CLEAN_FRAMES_PER_SPARSE_FLIGHT
+    if clean < least:
         # as many frames clean in every frame interval: more frames a second give more clean ones
         faster = (f"film at {math.ceil(rate * MIN_CLEAN_FRAMES_PER_FLIGHT / clean):g} frames/s or more"
                   if clean > 0 else "film at a higher frame rate")
-        return (f"clean frames in the flight {side} it: {int(clean)} < {MIN_CLEAN_FRAMES_PER_FLIGHT}",
+        return (f"clean frames in the flight {side} it: {int(clean)} < {least}",
                 f"{faster}, with a shorter exposure")
     fraction = min(clean / max(span, 1.0), 1.0)
     if share_judged and fraction < MIN_CLEAN_FRACTION:
@@ -329,6 +365,55 @@ def _impact_problems(impacts_row, frames_before, frames_after, frame_interval_s,
         if problem is not None:
             problems[side] = problem
     return problems
+
+
+def sparse_flight_e_se(e, frames_before, frames_after, drop_before=False):
+    """The standard error to add, in quadrature, to the e of an impact measured from a flight (before it, after it or
+    both) that lasts fewer than :data:`DENSE_FRAME_INTERVALS_PER_FLIGHT` frame intervals: the error that so sparse
+    a sampling of the flight makes in the speed at its contact, beyond the fit's standard error, relative
+    :data:`SPARSE_DROP_SPEED_RELATIVE_SE` for the drop from a release, :data:`SPARSE_BOUNCE_SPEED_RELATIVE_SE` for
+    a bounce (measured: ``benchmarks/sparse_flight_sweep.py``). e = v_out / v_in: the two flights' relative errors
+    add in quadrature.
+
+    Parameters
+    ----------
+    e : float
+        The impact's e.
+    frames_before, frames_after : float
+        How many frame intervals the flights before and after the impact last (NaN: not fitted).
+    drop_before : bool
+        Whether the flight before the impact is the drop from its release (impact 1 of a drop), not a bounce.
+
+    Returns
+    -------
+    float
+        0 where both flights last :data:`DENSE_FRAME_INTERVALS_PER_FLIGHT` intervals or more.
+    """
+    variance = 0.0
+    for span, relative in ((frames_before, SPARSE_DROP_SPEED_RELATIVE_SE if drop_before
+                            else SPARSE_BOUNCE_SPEED_RELATIVE_SE), (frames_after, SPARSE_BOUNCE_SPEED_RELATIVE_SE)):
+        if np.isfinite(span) and span < DENSE_FRAME_INTERVALS_PER_FLIGHT:
+            variance += relative ** 2
+    return abs(float(e)) * math.sqrt(variance)
+
+
+def sparse_flights(frames_before, frames_after):
+    """The flights of an impact that last fewer than :data:`DENSE_FRAME_INTERVALS_PER_FLIGHT` frame intervals, as
+    {"before": span, "after": span} (empty: densely filmed)."""
+    return {side: span for side, span in (("before", frames_before), ("after", frames_after))
+            if np.isfinite(span) and span < DENSE_FRAME_INTERVALS_PER_FLIGHT}
+
+
+def _sparse_note(frames_before, frames_after, frame_interval_s, se, widened_se):
+    """The note on an impact measured from a sparsely filmed flight: its span and how far e's interval grew."""
+    spans = " and ".join(f"the flight {side} it lasts {span:.1f} frame intervals"
+                         for side, span in sparse_flights(frames_before, frames_after).items())
+    said = (f"sparsely filmed: {spans} at {1.0 / frame_interval_s:.3g} frames/s (fewer than "
+            f"{DENSE_FRAME_INTERVALS_PER_FLIGHT}): ")
+    if widened_se > se:
+        return (f"{said}e's 95 % interval widened from ±{Z95 * se:.2g} to ±{Z95 * widened_se:.2g} for the error so "
+                f"sparse a sampling makes")
+    return f"{said}e's 95 % interval (±{Z95 * se:.2g}) not widened: such flights' fits covered their errors"
 
 
 def flight_violation(impacts_row, frames_before, frames_after, frame_interval_s):
@@ -492,7 +577,10 @@ def clean_share(clean_times_s, frame_interval_s):
 def select_resolved_impacts(analysis, source, frame_interval_s, unclean=None, clean_times_s=None):
     """Judge each impact by its own two flights: an impact whose flight before or after is too poorly filmed
     (:func:`flight_violation`: too few frame intervals, too few clean frames, too small a part of its frames clean)
-    keeps its row with no e and the reason; the others keep their e, whatever the flights elsewhere.
+    keeps its row with no e and the reason; the others keep their e, whatever the flights elsewhere. An impact
+    measured from a flight of fewer than :data:`DENSE_FRAME_INTERVALS_PER_FLIGHT` frame intervals (sparsely filmed,
+    from :data:`MIN_FRAME_INTERVALS_PER_FLIGHT` up) has its e's standard error, interval and variance widened by
+    :func:`sparse_flight_e_se`, and a note that says by how much.
 
     Impact n needs flights n − 1 and n: a flight too poorly filmed costs the impacts on both its sides (e, the
     flight-time ratio and the contact time of both; the impact speed of the one after it, the rebound speed of
@@ -523,7 +611,8 @@ def select_resolved_impacts(analysis, source, frame_interval_s, unclean=None, cl
         unusable flights decide (:data:`UNRESOLVED_IMPACT_COLUMNS`, :data:`UNRESOLVED_AFTER_COLUMNS`, with their
         se and interval), ``in_fit`` false, its e's rows and columns of the covariances zero, and the reason in
         its ``note`` (the impacts table's reason for leaving an impact out, shared with e > 1).
-        ``summary["impacts_unmeasured"]`` counts them.
+        ``summary["impacts_unmeasured"]`` counts them, ``summary["impacts_sparsely_filmed"]`` the impacts measured
+        from a sparsely filmed flight.
 
     Raises
     ------
@@ -582,8 +671,27 @@ def select_resolved_impacts(analysis, source, frame_interval_s, unclean=None, cl
             matrix[rows, :] = 0.0
             matrix[:, rows] = 0.0
         e_drag_covariance[i] = 0.0
+    sparse = 0
+    for i, (found, before, after) in enumerate(zip(problems, *spans)):
+        # measured from a flight sparsely filmed: e's interval covers the error that sampling makes
+        if found or not sparse_flights(before, after) or "e" not in impacts:
+            continue
+        drop_before = i == 0 and int(numbers[0]) == 1 and not analysis.summary.get("first_flight_is_a_bounce")
+        extra = sparse_flight_e_se(impacts["e"].iloc[i], before, after, drop_before)
+        se_name = se_column_name("e")
+        se = float(impacts[se_name].iloc[i])
+        widened = math.hypot(se, extra)
+        if extra > 0.0:
+            impacts.loc[i, se_name] = widened
+            impacts.loc[i, se_column_name("e", "ci95_low")] = impacts["e"].iloc[i] - Z95 * widened
+            impacts.loc[i, se_column_name("e", "ci95_high")] = impacts["e"].iloc[i] + Z95 * widened
+            e_covariance[i, i] += extra ** 2
+            e_contact_covariance[i, i] += extra ** 2
+        notes[i] = "; ".join(filter(None, (_sparse_note(before, after, frame_interval_s, se, widened), notes[i])))
+        sparse += 1
     impacts["note"] = notes
-    summary = dict(analysis.summary, impacts_unmeasured=int(sum(bool(found) for found in problems)))
+    summary = dict(analysis.summary, impacts_unmeasured=int(sum(bool(found) for found in problems)),
+                   impacts_sparsely_filmed=sparse)
     return dataclasses.replace(analysis, impacts=impacts, e_covariance=e_covariance,
                                e_contact_covariance=e_contact_covariance, e_drag_covariance=e_drag_covariance,
                                summary=summary)
