@@ -372,7 +372,9 @@ def fuse(picture_impacts, picture_e_covariance, picture_fit, sound_impacts, soun
         ep, eps = float(picture_impacts["e"].iloc[i]), float(picture_impacts["e_se"].iloc[i])
         es, ess = float(sound_impacts["e"].iloc[j]), float(sound_impacts["e_se"].iloc[j])
         both = all(np.isfinite([ep, eps, es, ess])) and eps > 0 and ess > 0
-        combined, combined_se = inverse_variance([ep, es], [eps, ess]) if both else (float("nan"), float("nan"))
+        # (an e its own sensor leaves out of its fits, a detection error, is compared but never combined)
+        fitted = both and _in_fit(picture_impacts, i) and _in_fit(sound_impacts, j)
+        combined, combined_se = inverse_variance([ep, es], [eps, ess]) if fitted else (float("nan"), float("nan"))
         pairs.append(ImpactPair(int(picture_impacts["impact"].iloc[i]), int(sound_impacts["impact"].iloc[j]),
                                 float(picture_impacts["t_touchdown_s"].iloc[i]),
                                 float(sound_impacts["t_touchdown_s"].iloc[j]), ep, eps, es, ess, combined,
