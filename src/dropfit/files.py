@@ -223,6 +223,44 @@ def read_bytes(path, what="file"):
         raise InputError(unreadable(path, error)) from None
 
 
+#: The most bytes a member of a zip archive (a phyphox export's data set, a ``.trz``'s ``.trk``) may unpack to:
+#: 16 MiB. A phyphox set of a minute's drops at its fastest rate (500 Hz, five columns) is under 3 MB, a
+#: Tracker project of thousands of marked frames a few MB; a table's text costs many times its bytes in
+#: memory (`dropfit run` of a 32 MB set took 1.14 GB, of a 16 MiB one 686 MB), so 16 MiB
+#: keeps the largest member accepted under the 1000 MB a job has. A zip may claim any size (a bomb lies):
+#: a member is read no further than this bound plus one byte.
+MAX_ARCHIVE_MEMBER_BYTES = 16 * 1024 * 1024
+
+
+def _mib(size):
+    mib = size / 1024 ** 2
+    return f"{mib:.0f} MiB" if mib >= 10 else f"{mib:.3g} MiB" if mib >= 1 else f"{size} bytes"
+
+
+def read_archive_member(path, archive, name, advice, bound=MAX_ARCHIVE_MEMBER_BYTES):
+    """The bytes of member ``name`` of the open :class:`zipfile.ZipFile` ``archive`` (the file ``path``), read
+    no further than ``bound`` (:data:`MAX_ARCHIVE_MEMBER_BYTES`, or what is left of it for several members);
+    :class:`InputError` naming the bound for a larger one (by the size it declares, or, when that lies, by
+    what it unpacks to), ending with ``advice`` (what to do)."""
+    declared = archive.getinfo(name).file_size
+
+    def refuse(size):
+        limit = f"the {_mib(MAX_ARCHIVE_MEMBER_BYTES)} dropfit reads from an archive (MAX_ARCHIVE_MEMBER_BYTES"
+        if bound < MAX_ARCHIVE_MEMBER_BYTES:  # the members before it took the rest
+            return InputError(f"{shown_path(path)}: its members up to '{shown(name, 60)}' unpack to more than "
+                              f"{limit}, all members together); {advice}")
+        return InputError(f"{shown_path(path)}: its member '{shown(name, 60)}' unpacks to {size}, more than "
+                          f"{limit}); {advice}")
+
+    if declared > bound:
+        raise refuse(_mib(declared))
+    with archive.open(name) as member:
+        raw = member.read(bound + 1)
+    if len(raw) > bound:
+        raise refuse(f"more than it declares ({_mib(declared)})")
+    return raw
+
+
 def decoded_text(raw):
     """The text of a file's bytes and its encoding: UTF-8 (a byte-order mark dropped), else Windows-1252, the
     encoding a Windows spreadsheet saves "CSV" in (``Höhe`` as the byte 0xF6); bytes it leaves undefined

@@ -83,7 +83,7 @@ def _phyphox_impact_set(path):
     "Acoustic Stopwatch"), or None."""
     try:
         with open(path, "rb") as handle:
-            sets = phyphox_sets(handle.read())
+            sets = phyphox_sets(handle.read(), path)
     except OSError:
         return None
     texts = (raw.decode("utf-8-sig", "replace") for raw in (sets or {}).values())

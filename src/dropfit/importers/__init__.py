@@ -71,7 +71,7 @@ def read_track(path, options=None):
     if options.format == "tracker" and raw.lstrip()[:1] in (b"<", b"P") or \
             options.format in (None, "tracker") and _is_tracker_project(path, raw):
         return _finished(path, tracker.read_project(path, raw, options))
-    sets = sensors.phyphox_sets(raw) if options.format in (None, "phyphox") else None
+    sets = sensors.phyphox_sets(raw, path) if options.format in (None, "phyphox") else None
     if sets is not None:
         raw, options = sensors.phyphox_position_set(path, sets), dataclasses.replace(options, format="phyphox")
     else:

@@ -27,6 +27,7 @@ import zipfile
 import numpy as np
 
 from ..errors import InputError, shown_path
+from ..files import MAX_ARCHIVE_MEMBER_BYTES, read_archive_member
 from .base import LENGTH_UNITS_M
 from .table import track_from_table
 
@@ -138,9 +139,10 @@ def _rows_with_time(table, run):
     return dataclasses.replace(table, rows=[row for row, time in zip(table.rows, times) if np.isfinite(time)])
 
 
-def phyphox_sets(raw):
+def phyphox_sets(raw, path=""):
     """The data sets of phyphox's zipped CSV export, ``{set name: bytes of its CSV}``; None when ``raw``
-    (a file's bytes) is not such an export (not a zip, or a zip without phyphox's ``meta/`` folder)."""
+    (a file's bytes) is not such an export (not a zip, or a zip without phyphox's ``meta/`` folder).
+    InputError for a set larger than :data:`dropfit.files.MAX_ARCHIVE_MEMBER_BYTES` (``path`` names the file)."""
     if not raw.startswith(b"PK\x03\x04"):
         return None
     try:
@@ -148,8 +150,13 @@ def phyphox_sets(raw):
             names = archive.namelist()
             if not any(name.startswith(PHYPHOX_META_FOLDER) for name in names):
                 return None
-            return {name[:-len(".csv")]: archive.read(name) for name in names
-                    if name.lower().endswith(".csv") and not name.startswith(PHYPHOX_META_FOLDER)}
+            sets, left = {}, MAX_ARCHIVE_MEMBER_BYTES  # (the bound holds for all the sets together)
+            for name in names:
+                if name.lower().endswith(".csv") and not name.startswith(PHYPHOX_META_FOLDER):
+                    sets[name[:-len(".csv")]] = read_archive_member(
+                        path, archive, name, "record only the drops (a shorter run) and export again", left)
+                    left -= len(sets[name[:-len(".csv")]])
+            return sets
     except (zipfile.BadZipFile, zipfile.LargeZipFile, OSError, EOFError, ValueError):
         return None
 

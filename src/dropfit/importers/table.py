@@ -188,7 +188,10 @@ def split(line, separator):
     """The fields of one line (spaces: any run of whitespace; a quoted field may hold the separator)."""
     if separator == " ":
         return line.split()
-    return next(csv.reader([line], delimiter=separator), [])
+    try:
+        return next(csv.reader([line], delimiter=separator), [])
+    except csv.Error:  # a field over the csv module's limit: a line :func:`read_table` refuses
+        return line.split(separator)
 
 
 def text_lines(path, raw):
@@ -266,6 +269,11 @@ def read_table(path, lines):
     InputError
         When no separator splits a header and rows of numbers alike.
     """
+    longest = max(range(len(lines)), key=lambda i: len(lines[i]), default=None)
+    if longest is not None and len(lines[longest]) > MAX_LINE_CHARACTERS:
+        raise InputError(f"{shown_path(path)}: line {longest + 1} of its table is {len(lines[longest])} characters "
+                         f"long, more than the {MAX_LINE_CHARACTERS} a table's line may be (MAX_LINE_CHARACTERS); "
+                         f"give a table of one sample per line, with fewer columns")
     found = {}
     for separator in SEPARATORS:
         if separator == " " and any(sep in lines[0] for sep in ",;\t|"):

@@ -32,6 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError, shown, shown_path
+from ..files import read_archive_member
 from .base import LENGTH_UNITS_M, ImportedTrack, pick_track
 from .table import Table, describe, parse_column, read_table, split, track_from_table
 
@@ -171,7 +172,8 @@ def project_bytes(path, raw):
             if not names:
                 raise InputError(f"{shown_path(path)}: is a zip archive without a Tracker project (.trk) in it; give "
                                  f"the .trz saved by Tracker, or export the data as CSV")
-            return archive.read(names[0])
+            return read_archive_member(path, archive, names[0], "save a project of fewer frames in Tracker, "
+                                                                "or export the track as a table (CSV)")
     except zipfile.BadZipFile:
         raise InputError(f"{shown_path(path)}: is a damaged zip archive (a .trz?); save the project again") from None
 

@@ -38,6 +38,14 @@ MIN_FRAMES = 10
 FRAME_COUNT_SLACK = 2
 FRAME_COUNT_SLACK_FRACTION = 0.02
 
+#: The most pixels a frame may have: DCI 4K, 4096 × 2160 (8.8 MP), so every 4K clip (UHD 3840 × 2160 too),
+#: the largest a phone films. Memory grows with the frame (the decoded frames held ahead, the background's
+#: samples, the tracker's working copies): a 3-frame UHD clip peaked at 0.82 GB, an 8K one (7680 × 4320) at
+#: 2.8 GB, a 2-frame 8192 × 8192 one at 3.0 GB, so no frame above 4K can fit the 1000 MB a job has. A larger
+#: frame is refused from its stream's size, before any frame is decoded. (A 4K clip of 30 frames or more
+#: still peaks at about 1.4 GB: that wants a bound on the frames held, not on the frame.)
+MAX_FRAME_PIXELS = 4096 * 2160
+
 #: Files that are not videos, by their first bytes: (signature, what it is).
 _NOT_VIDEOS = [(b"\x89PNG", "a PNG image"), (b"\xff\xd8\xff", "a JPEG image"), (b"GIF8", "a GIF image"),
                (b"%PDF", "a PDF document"), (b"PK\x03\x04", "a ZIP archive or spreadsheet"),
@@ -61,6 +69,15 @@ def check_video_file(path):
     if not any(ord(char) < 32 and char not in "\t\r\n" for char in text):
         raise InputError(f"{name}: is a text file, not a video (a height log must have the suffix .csv); give the "
                          f"video file")
+
+
+def check_frame_size(width, height, path):
+    """InputError for frames of more than :data:`MAX_FRAME_PIXELS` (``width``, ``height``: px; 0 when unknown)."""
+    if (width or 0) * (height or 0) > MAX_FRAME_PIXELS:
+        raise InputError(f"{shown_path(path)}: its frames are {width} × {height} px ({width * height / 1e6:.1f} MP), "
+                         f"more than the {MAX_FRAME_PIXELS / 1e6:.1f} MP (4096 × 2160) dropfit decodes "
+                         f"(MAX_FRAME_PIXELS); scale the clip down to 4K or less, e.g. ffmpeg -i IN -vf "
+                         f"scale=-2:2160 OUT")
 
 
 def check_frame_count(decoded, declared, path):
@@ -402,11 +419,13 @@ class VideoFile:
             duration_s = float(stream.duration * time_base) if stream.duration and time_base else (
                 self._container.duration / av.time_base if self._container.duration else math.nan)
             declared = stream.frames or (round(duration_s * fps) if fps and math.isfinite(duration_s) else 0)
+            check_frame_size(stream.codec_context.width, stream.codec_context.height, path)
             first = next(self._decoded(), None)
             if first is None:
                 declared_text = f" of the {declared} its container declares" if declared >= 1 else ""
                 raise InputError(f"{name}: no frame{declared_text} could be decoded: the video is empty, truncated "
                                  f"or corrupt; copy or export it again")
+            check_frame_size(first.width, first.height, path)  # (a stream that did not say its size)
         except BaseException:
             self._container.close()
             raise

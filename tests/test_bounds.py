@@ -1,0 +1,127 @@
+"""Every reader has a bound: an input over it is refused in one line naming the bound, and in little memory.
+
+Each hostile input is made here, small on disk: a zip whose one member unpacks to far more than
+:data:`dropfit.files.MAX_ARCHIVE_MEMBER_BYTES` (a phyphox export, a Tracker ``.trz``), a phyphox set of
+a line longer than :data:`dropfit.importers.table.MAX_LINE_CHARACTERS`, and a clip of frames larger than
+:data:`dropfit.video.decode.MAX_FRAME_PIXELS`. Each runs ``python -m dropfit measure`` in a subprocess that
+reports its own peak memory (``VmHWM`` of ``/proc/self/status``: unlike ``ru_maxrss``, not inherited from
+the test process it was forked from), so that what other tests hold does not count.
+"""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+import zipfile
+
+import pytest
+
+from dropfit.files import MAX_ARCHIVE_MEMBER_BYTES
+from dropfit.importers.table import MAX_LINE_CHARACTERS
+from dropfit.video.decode import MAX_FRAME_PIXELS
+
+from helpers import CALL_TIMEOUT_S, assert_one_line_error
+
+#: The most memory a refused archive may take, MB: the interpreter with dropfit, numpy and PyAV loaded takes
+#: 130 MB; reading the 128 MiB members below whole took 390-410 MB (and a 1.6 GB one 4.86 GB).
+ARCHIVE_REFUSAL_PEAK_MB = 250
+#: ... and a refused clip: FFmpeg's probe of its stream decodes a frame (an 8192 × 8192 clip: 325 MB); decoding
+#: its two frames took 3.0 GB.
+CLIP_REFUSAL_PEAK_MB = 500
+
+#: ``python -m dropfit ARGS`` that prints its peak memory (kB) as the last line of standard output.
+_MEASURED = """
+import re, runpy, sys
+sys.argv = ["dropfit", *sys.argv[1:]]
+try:
+    runpy.run_module("dropfit", run_name="__main__")
+finally:
+    with open("/proc/self/status") as status:
+        print(re.search(r"VmHWM:\\s*(\\d+) kB", status.read()).group(1), flush=True)
+"""
+
+pytestmark = pytest.mark.skipif(not sys.platform.startswith("linux"), reason="peak memory from /proc (Linux)")
+
+
+def measured_dropfit(*args, cwd):
+    """Run dropfit with ``args`` in ``cwd``: (the CompletedProcess, its peak memory in MB)."""
+    done = subprocess.run([sys.executable, "-c", _MEASURED, *map(str, args)], cwd=cwd, capture_output=True,
+                          text=True, timeout=CALL_TIMEOUT_S)
+    return done, int(done.stdout.split()[-1]) / 1024
+
+
+def _zip_with(path, members):
+    """A zip at ``path`` of ``members`` {name: (bytes, repeats)}: each member its bytes that many times over."""
+    with zipfile.ZipFile(path, "w", zipfile.ZIP_DEFLATED, compresslevel=1) as archive:
+        for name, (chunk, repeats) in members.items():
+            with archive.open(name, "w", force_zip64=True) as member:
+                for _ in range(repeats):
+                    member.write(chunk)
+    return path
+
+
+def _refused(tmp_path, path, words, peak_limit_mb=ARCHIVE_REFUSAL_PEAK_MB):
+    done, peak_mb = measured_dropfit("measure", path, "--out", tmp_path / "trajectory.nc", cwd=tmp_path)
+    assert done.returncode == 1, done.stderr
+    assert_one_line_error(done.stderr, path.name)
+    assert "internal error" not in done.stderr
+    for word in words:
+        assert word in done.stderr, done.stderr
+    assert peak_mb < peak_limit_mb, f"{path.name} took {peak_mb:.0f} MB"
+    assert not (tmp_path / "trajectory.nc").exists()
+
+
+def test_the_bounds_leave_room_for_real_inputs():
+    assert 8 * 2 ** 20 <= MAX_ARCHIVE_MEMBER_BYTES <= 64 * 2 ** 20
+    assert 3840 * 2160 <= MAX_FRAME_PIXELS < 7680 * 4320
+
+
+def test_a_phyphox_set_that_unpacks_beyond_the_bound_is_refused(tmp_path):
+    # 128 MiB of one line, 0.6 MB on disk: read whole, it took gigabytes and then an internal error
+    chunk = b"1" * (4 << 20)
+    path = _zip_with(tmp_path / "phyphox.zip", {"meta/device.csv": (b'"property","value"\n', 1),
+                                                "Position.csv": (chunk, 32)})
+    _refused(tmp_path, path, ["Position.csv", "MAX_ARCHIVE_MEMBER_BYTES", "128 MiB", "export again"])
+
+
+def test_phyphox_sets_are_bounded_together(tmp_path):
+    # five sets each under the bound (5 MiB each of a bound of 16), together over it
+    chunk = b"2" * (1 << 20)
+    sets = {f"Set {index}.csv": (chunk, MAX_ARCHIVE_MEMBER_BYTES // (4 << 20) + 1) for index in range(5)}
+    path = _zip_with(tmp_path / "phyphox.zip", {"meta/device.csv": (b'"property","value"\n', 1)} | sets)
+    _refused(tmp_path, path, ["Set 3.csv", "MAX_ARCHIVE_MEMBER_BYTES", "all members together"])
+
+
+def test_a_tracker_project_that_unpacks_beyond_the_bound_is_refused(tmp_path):
+    # a .trk of 128 MiB of spaces in a .trz of 0.6 MB
+    path = _zip_with(tmp_path / "drop.trz", {"drop.trk": (b" " * (4 << 20), 32)})
+    _refused(tmp_path, path, ["drop.trk", "MAX_ARCHIVE_MEMBER_BYTES", "128 MiB", "Tracker"])
+
+
+def test_a_table_line_beyond_the_bound_is_refused_not_an_internal_error(tmp_path):
+    # a line over the csv module's field limit (131072) in a phyphox set gave "internal error … field limit"
+    line = b"1" * (200_000) + b"\n"
+    path = _zip_with(tmp_path / "phyphox.zip", {"meta/device.csv": (b'"property","value"\n', 1),
+                                                "Position.csv": (b'"Time (s)","Distance (m)"\n' + line
+                                                                 + b"0.1,0.2\n0.2,0.3\n", 1)})
+    _refused(tmp_path, path, ["200000 characters", str(MAX_LINE_CHARACTERS), "MAX_LINE_CHARACTERS"])
+
+
+def test_frames_beyond_the_pixel_bound_are_refused_before_decoding(tmp_path):
+    # 2 flat frames of 8192 × 8192 (0.2 MB on disk): decoded, they took 2.98 GB before "only 2 frames"
+    av = pytest.importorskip("av")
+    path = tmp_path / "huge.mp4"
+    container = av.open(str(path), "w")
+    stream = container.add_stream("libx264", rate=30)
+    stream.width = stream.height = 8192
+    stream.pix_fmt = "yuv420p"
+    stream.options = {"preset": "ultrafast"}
+    frame = av.VideoFrame(8192, 8192, "yuv420p")
+    for plane in frame.planes:
+        memoryview(plane)[:] = b"\x5a" * plane.buffer_size
+    for index in range(2):
+        frame.pts = index
+        container.mux(stream.encode(frame))
+    container.mux(stream.encode())
+    container.close()
+    _refused(tmp_path, path, ["8192 × 8192 px", "MAX_FRAME_PIXELS", "scale"], CLIP_REFUSAL_PEAK_MB)
