@@ -114,9 +114,9 @@ def test_the_command_writes_the_sheet_and_an_h264_clip_of_every_frame(analysed_c
 
 
 def test_a_refused_clip_gets_a_sheet_with_its_reason(drop, tmp_path):
-    """15 frames/s: the fall is too briefly filmed. Through the workflow's stages: measure keeps the
+    """10 frames/s: the fall is too briefly filmed. Through the workflow's stages: measure keeps the
     tracked table, analyse records the refusal, the overlay reads both."""
-    video = render_drop_clip(tmp_path / "slow.avi", drop, fps=15.0).attrs["video_path"]
+    video = render_drop_clip(tmp_path / "slow.avi", drop, fps=10.0).attrs["video_path"]
     out = tmp_path / "results"
     assert main(["measure", video, "--out", str(out / "trajectory.nc"), "--track", str(out / "track.csv"),
                  "--ball-radius-m", str(CLIP_BALL_RADIUS_M)]) == 0
@@ -178,19 +178,19 @@ def test_heights_in_a_target_plane_go_back_to_a_tilted_cameras_rows():
 
 
 def test_a_video_refused_by_run_leaves_its_tracked_table_and_a_sheet_of_its_frames(drop, tmp_path, capsys):
-    """``dropfit run --record-failure`` of a 15 frames/s clip (every flight too briefly filmed: refused): its
+    """``dropfit run --record-failure`` of a 10 frames/s clip (every flight too briefly filmed: refused): its
     ``track.csv`` is the tracked table, a row per frame, and its contact sheet shows the frames, the ball circled
     in its quality's colour, under the refusal (before: both were failure records, the sheet a strip of text)."""
     import pandas as pd
 
-    video = render_drop_clip(tmp_path / "slow.avi", drop, fps=15.0).attrs["video_path"]
+    video = render_drop_clip(tmp_path / "slow.avi", drop, fps=10.0).attrs["video_path"]
     out = tmp_path / "results"
     assert main(["run", video, "--out", str(out), "--ball-radius-m", str(CLIP_BALL_RADIUS_M), "--record-failure"]) == 0
     message = capsys.readouterr().err.strip().splitlines()[-1][len("dropfit: error: "):]
     assert "not analysable" in message
     table = pd.read_csv(out / "track.csv")
-    assert len(table) == len(stages.read_table(out / "track.csv", "tracked table")) > 20
-    assert {"frame", "x_px", "y_px", "quality"} <= set(table.columns) and (table["quality"] == QUALITY_OK).sum() > 10
+    assert len(table) == len(stages.read_table(out / "track.csv", "tracked table")) > 15
+    assert {"frame", "x_px", "y_px", "quality"} <= set(table.columns) and (table["quality"] == QUALITY_OK).sum() >= 5
     sheet = cv2.imread(str(out / "contact_sheet.png"))
     tile_height = TILE_BOX_PX[1] + LABEL_HEIGHT_PX
     assert sheet.shape[1] == SHEET_COLUMNS * TILE_BOX_PX[0] and sheet.shape[0] > SHEET_TILES // SHEET_COLUMNS * tile_height
