@@ -18,6 +18,8 @@ import re
 import stat
 import tempfile
 import textwrap
+import zipfile
+import zlib
 from pathlib import Path
 
 from .errors import InputError, OutputError, one_line, shown, shown_path
@@ -254,8 +256,13 @@ def read_archive_member(path, archive, name, advice, bound=MAX_ARCHIVE_MEMBER_BY
 
     if declared > bound:
         raise refuse(_mib(declared))
-    with archive.open(name) as member:
-        raw = member.read(bound + 1)
+    try:
+        with archive.open(name) as member:
+            raw = member.read(bound + 1)
+    except (zipfile.BadZipFile, zlib.error, EOFError, OSError, NotImplementedError, RuntimeError) as error:
+        # a damaged member (bad CRC, deflate data cut), or one compressed or encrypted as zipfile cannot read
+        raise InputError(f"{shown_path(path)}: its member '{shown(name, 60)}' cannot be unpacked (a damaged zip: "
+                         f"{shown(error)}); save or export it again, unencrypted") from None
     if len(raw) > bound:
         raise refuse(f"more than it declares ({_mib(declared)})")
     return raw

@@ -129,7 +129,7 @@ def _is_tracker_project(path, raw):
         try:
             with zipfile.ZipFile(io.BytesIO(raw)) as archive:
                 return any(name.lower().endswith(".trk") for name in archive.namelist())
-        except zipfile.BadZipFile:
+        except (zipfile.BadZipFile, zipfile.LargeZipFile, OSError, EOFError, ValueError):
             return False
     return False
 

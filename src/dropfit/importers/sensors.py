@@ -55,7 +55,9 @@ def height_from_distance(path, track, sensor_height_m=None):
         The sensor's height above the floor, m: the height is this minus the distance.
     """
     from ..analysis import vertical_sign
+    from .base import checked_track
 
+    track = checked_track(path, track)  # a missing time refused before the bounces are looked for
     if track.unit == "px":
         raise InputError(f"{shown_path(path)}: a distance from a sensor in px cannot be a height; give it in m, cm or mm")
     distance = track.y * LENGTH_UNITS_M[track.unit]
