@@ -177,6 +177,10 @@ DAMAGED_PHYPHOX = DAMAGED_PHYPHOX[:79] + b"\x00" + DAMAGED_PHYPHOX[80:]
 #: A Tracker .trz whose .trk's deflated bytes were damaged.
 DAMAGED_TRZ = _zip([("drop.trk", TRK.encode())])
 DAMAGED_TRZ = DAMAGED_TRZ[:60] + b"\x00" + DAMAGED_TRZ[61:]
+#: A .trz whose central directory asks for a zip version zipfile does not read (NotImplementedError escaped).
+VERSION_6_4 = _zip([("drop.trk", TRK.encode())])
+VERSION_6_4 = VERSION_6_4[:VERSION_6_4.index(b"PK\x01\x02") + 6] + bytes([64]) + \
+    VERSION_6_4[VERSION_6_4.index(b"PK\x01\x02") + 7:]
 #: A zip whose member name, flagged UTF-8, is not (UnicodeDecodeError escaped the Tracker reader).
 NAME_NOT_UTF8 = _zip([("meta/", b""), ("\x80", b"")])
 NAME_NOT_UTF8 = NAME_NOT_UTF8[:168] + b"\x00" + NAME_NOT_UTF8[169:]
@@ -235,6 +239,8 @@ def test_mutated_tracker_projects_are_read_or_refused_in_one_line(folder, suffix
 @example(suffix=".trz", data=DAMAGED_TRZ, opts=ImportOptions())  # zlib.error
 @example(suffix=".trz", data=NAME_NOT_UTF8, opts=ImportOptions())  # UnicodeDecodeError
 @example(suffix=".zip", data=NAME_NOT_UTF8, opts=ImportOptions())
+@example(suffix=".trz", data=VERSION_6_4, opts=ImportOptions())  # NotImplementedError: zip file version 6.4
+@example(suffix=".zip", data=VERSION_6_4, opts=ImportOptions())
 def test_zips_of_random_members_are_read_or_refused_in_one_line(folder, suffix, data, opts):
     _check(lambda: read_track(_write(folder, suffix, data), opts))
 

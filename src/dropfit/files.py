@@ -234,6 +234,11 @@ def read_bytes(path, what="file"):
 MAX_ARCHIVE_MEMBER_BYTES = 16 * 1024 * 1024
 
 
+#: What :mod:`zipfile` raises for a damaged or foreign archive: a bad header, a member name flagged UTF-8 that is
+#: not (ValueError), a zip version or compression it does not read (NotImplementedError), cut deflate data.
+ZIP_ERRORS = (zipfile.BadZipFile, zipfile.LargeZipFile, zlib.error, OSError, EOFError, ValueError, NotImplementedError)
+
+
 def _mib(size):
     mib = size / 1024 ** 2
     return f"{mib:.0f} MiB" if mib >= 10 else f"{mib:.3g} MiB" if mib >= 1 else f"{size} bytes"
@@ -259,7 +264,7 @@ def read_archive_member(path, archive, name, advice, bound=MAX_ARCHIVE_MEMBER_BY
     try:
         with archive.open(name) as member:
             raw = member.read(bound + 1)
-    except (zipfile.BadZipFile, zlib.error, EOFError, OSError, NotImplementedError, RuntimeError) as error:
+    except (*ZIP_ERRORS, RuntimeError) as error:  # (RuntimeError: an encrypted member)
         # a damaged member (bad CRC, deflate data cut), or one compressed or encrypted as zipfile cannot read
         raise InputError(f"{shown_path(path)}: its member '{shown(name, 60)}' cannot be unpacked (a damaged zip: "
                          f"{shown(error)}); save or export it again, unencrypted") from None

@@ -27,7 +27,7 @@ import zipfile
 import numpy as np
 
 from ..errors import InputError, shown_path
-from ..files import MAX_ARCHIVE_MEMBER_BYTES, read_archive_member
+from ..files import MAX_ARCHIVE_MEMBER_BYTES, ZIP_ERRORS, read_archive_member
 from .base import LENGTH_UNITS_M
 from .table import track_from_table
 
@@ -159,7 +159,7 @@ def phyphox_sets(raw, path=""):
                         path, archive, name, "record only the drops (a shorter run) and export again", left)
                     left -= len(sets[name[:-len(".csv")]])
             return sets
-    except (zipfile.BadZipFile, zipfile.LargeZipFile, OSError, EOFError, ValueError):
+    except ZIP_ERRORS:
         return None
 
 

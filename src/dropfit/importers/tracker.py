@@ -32,7 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError, shown, shown_path
-from ..files import read_archive_member
+from ..files import ZIP_ERRORS, read_archive_member
 from .base import LENGTH_UNITS_M, ImportedTrack, pick_track
 from .table import Table, describe, parse_column, read_table, split, track_from_table
 
@@ -174,7 +174,7 @@ def project_bytes(path, raw):
                                  f"the .trz saved by Tracker, or export the data as CSV")
             return read_archive_member(path, archive, names[0], "save a project of fewer frames in Tracker, "
                                                                 "or export the track as a table (CSV)")
-    except (zipfile.BadZipFile, zipfile.LargeZipFile, OSError, EOFError, ValueError):  # (a name not UTF-8: ValueError)
+    except ZIP_ERRORS:
         raise InputError(f"{shown_path(path)}: is a damaged zip archive (a .trz?); save the project again") from None
 
 
