@@ -18,6 +18,8 @@ import re
 import stat
 import tempfile
 import textwrap
+import zipfile
+import zlib
 from pathlib import Path
 
 from .errors import InputError, OutputError, one_line, shown, shown_path
@@ -232,6 +234,11 @@ def read_bytes(path, what="file"):
 MAX_ARCHIVE_MEMBER_BYTES = 16 * 1024 * 1024
 
 
+#: What :mod:`zipfile` raises for a damaged or foreign archive: a bad header, a member name flagged UTF-8 that is
+#: not (ValueError), a zip version or compression it does not read (NotImplementedError), cut deflate data.
+ZIP_ERRORS = (zipfile.BadZipFile, zipfile.LargeZipFile, zlib.error, OSError, EOFError, ValueError, NotImplementedError)
+
+
 def _mib(size):
     mib = size / 1024 ** 2
     return f"{mib:.0f} MiB" if mib >= 10 else f"{mib:.3g} MiB" if mib >= 1 else f"{size} bytes"
@@ -254,8 +261,13 @@ def read_archive_member(path, archive, name, advice, bound=MAX_ARCHIVE_MEMBER_BY
 
     if declared > bound:
         raise refuse(_mib(declared))
-    with archive.open(name) as member:
-        raw = member.read(bound + 1)
+    try:
+        with archive.open(name) as member:
+            raw = member.read(bound + 1)
+    except (*ZIP_ERRORS, RuntimeError) as error:  # (RuntimeError: an encrypted member)
+        # a damaged member (bad CRC, deflate data cut), or one compressed or encrypted as zipfile cannot read
+        raise InputError(f"{shown_path(path)}: its member '{shown(name, 60)}' cannot be unpacked (a damaged zip: "
+                         f"{shown(error)}); save or export it again, unencrypted") from None
     if len(raw) > bound:
         raise refuse(f"more than it declares ({_mib(declared)})")
     return raw

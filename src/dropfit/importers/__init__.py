@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from ..errors import InputError, shown_path
+from ..files import ZIP_ERRORS
 from .base import LENGTH_UNITS_M, ImportedTrack, ImportOptions, checked_track, drop_repeated_positions
 
 #: Every format, by the name ``--format`` and the ``format`` column of samples.tsv take.
@@ -129,7 +130,7 @@ def _is_tracker_project(path, raw):
         try:
             with zipfile.ZipFile(io.BytesIO(raw)) as archive:
                 return any(name.lower().endswith(".trk") for name in archive.namelist())
-        except zipfile.BadZipFile:
+        except ZIP_ERRORS:
             return False
     return False
 

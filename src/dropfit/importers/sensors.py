@@ -27,7 +27,7 @@ import zipfile
 import numpy as np
 
 from ..errors import InputError, shown_path
-from ..files import MAX_ARCHIVE_MEMBER_BYTES, read_archive_member
+from ..files import MAX_ARCHIVE_MEMBER_BYTES, ZIP_ERRORS, read_archive_member
 from .base import LENGTH_UNITS_M
 from .table import track_from_table
 
@@ -55,7 +55,9 @@ def height_from_distance(path, track, sensor_height_m=None):
         The sensor's height above the floor, m: the height is this minus the distance.
     """
     from ..analysis import vertical_sign
+    from .base import checked_track
 
+    track = checked_track(path, track)  # a missing time refused before the bounces are looked for
     if track.unit == "px":
         raise InputError(f"{shown_path(path)}: a distance from a sensor in px cannot be a height; give it in m, cm or mm")
     distance = track.y * LENGTH_UNITS_M[track.unit]
@@ -157,7 +159,7 @@ def phyphox_sets(raw, path=""):
                         path, archive, name, "record only the drops (a shorter run) and export again", left)
                     left -= len(sets[name[:-len(".csv")]])
             return sets
-    except (zipfile.BadZipFile, zipfile.LargeZipFile, OSError, EOFError, ValueError):
+    except ZIP_ERRORS:
         return None
 
 

@@ -274,6 +274,9 @@ def read_table(path, lines):
         raise InputError(f"{shown_path(path)}: line {longest + 1} of its table is {len(lines[longest])} characters "
                          f"long, more than the {MAX_LINE_CHARACTERS} a table's line may be (MAX_LINE_CHARACTERS); "
                          f"give a table of one sample per line, with fewer columns")
+    if not lines:
+        raise InputError(f"{shown_path(path)}: holds no line of text (only blanks or # comments); give a CSV file with "
+                         f"a header line, such as time_s,y_m, and a sample per line")
     found = {}
     for separator in SEPARATORS:
         if separator == " " and any(sep in lines[0] for sep in ",;\t|"):

@@ -32,7 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError, shown, shown_path
-from ..files import read_archive_member
+from ..files import ZIP_ERRORS, read_archive_member
 from .base import LENGTH_UNITS_M, ImportedTrack, pick_track
 from .table import Table, describe, parse_column, read_table, split, track_from_table
 
@@ -125,7 +125,7 @@ def parse_project(path, xml_bytes):
     name = shown_path(path)
     try:
         root = ElementTree.fromstring(xml_bytes)
-    except ElementTree.ParseError as error:
+    except (ElementTree.ParseError, LookupError) as error:  # (LookupError: an encoding Python does not know)
         raise InputError(f"{name}: is not a readable Tracker project (XML error: {shown(error)}); save it again in "
                          f"Tracker") from None
     if not root.get("class", "").endswith("TrackerPanel"):
@@ -174,7 +174,7 @@ def project_bytes(path, raw):
                                  f"the .trz saved by Tracker, or export the data as CSV")
             return read_archive_member(path, archive, names[0], "save a project of fewer frames in Tracker, "
                                                                 "or export the track as a table (CSV)")
-    except zipfile.BadZipFile:
+    except ZIP_ERRORS:
         raise InputError(f"{shown_path(path)}: is a damaged zip archive (a .trz?); save the project again") from None
 
 
