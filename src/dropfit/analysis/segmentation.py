@@ -521,7 +521,7 @@ def vertical_sign(time_s, height, seen_height=None):
     if seen_height is not None:
         candidates.append(np.where(np.isfinite(candidates[0]), candidates[0], seen_height))
     for heights in candidates:
-        decided, t, y, curvature, spread = _median_curvature_sign(time_s, heights)
+        decided, y, curvature, spread = _median_curvature_sign(time_s, heights)
         if decided:
             return decided
     if curvature is not None:
@@ -533,13 +533,13 @@ def vertical_sign(time_s, height, seen_height=None):
 
 def _median_curvature_sign(time_s, height):
     """(−sign of the moving samples' median second difference or 0.0 when it is within
-    ``FLIGHT_CURVATURE_SIGMAS`` standard errors of 0, the valid times, heights, their second differences about
-    that median (None for too few samples) and the differences' robust spread): :func:`vertical_sign`."""
+    ``FLIGHT_CURVATURE_SIGMAS`` standard errors of 0, the valid heights, their second differences about that
+    median (None for too few samples) and the differences' robust spread): :func:`vertical_sign`."""
     valid = np.isfinite(height)
     t, y = time_s[valid], height[valid]
     lag = max(1, int(round(0.01 / float(np.median(np.diff(t)))))) if t.size > 1 else 1
     if y.size <= 2 * lag:
-        return 0.0, t, y, None, 0.0
+        return 0.0, y, None, 0.0
     floor = 1e-12 * float(np.ptp(y))
     curvature = y[2 * lag:] - 2 * y[lag:-lag] + y[: -2 * lag]
     # a clean 30 Hz log's flights curve by 11 mm a step, which stood out from a 0.2 mm noise as if every
@@ -549,7 +549,7 @@ def _median_curvature_sign(time_s, height):
     centre = float(np.median(flights))
     spread = max(robust_sigma(flights, centre=centre), floor)
     decided = abs(centre) >= FLIGHT_CURVATURE_SIGMAS * MEDIAN_SE_FACTOR * spread / np.sqrt(flights.size)
-    return (-float(np.sign(centre)) if decided else 0.0), t, y, curvature - centre, spread
+    return (-float(np.sign(centre)) if decided else 0.0), y, curvature - centre, spread
 
 
 def up_direction(time_s, x, y):

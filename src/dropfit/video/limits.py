@@ -41,7 +41,7 @@ import numpy as np
 import pandas as pd
 
 from ..analysis import estimate_noise, se_column_name
-from ..analysis.tables import Z95
+from ..analysis.tables import Z95, add_with_interval
 from ..errors import InputError, shown_path
 from ..physics import STANDARD_GRAVITY_M_S2
 from .calibrate import slow_motion_reading
@@ -389,11 +389,8 @@ def sparse_flight_e_se(e, frames_before, frames_after, drop_before=False):
     float
         0 where both flights last :data:`DENSE_FRAME_INTERVALS_PER_FLIGHT` intervals or more.
     """
-    variance = 0.0
-    for span, relative in ((frames_before, SPARSE_DROP_SPEED_RELATIVE_SE if drop_before
-                            else SPARSE_BOUNCE_SPEED_RELATIVE_SE), (frames_after, SPARSE_BOUNCE_SPEED_RELATIVE_SE)):
-        if np.isfinite(span) and span < DENSE_FRAME_INTERVALS_PER_FLIGHT:
-            variance += relative ** 2
+    variance = sum((SPARSE_DROP_SPEED_RELATIVE_SE if side == "before" and drop_before
+                    else SPARSE_BOUNCE_SPEED_RELATIVE_SE) ** 2 for side in sparse_flights(frames_before, frames_after))
     return abs(float(e)) * math.sqrt(variance)
 
 
@@ -672,23 +669,22 @@ def select_resolved_impacts(analysis, source, frame_interval_s, unclean=None, cl
             matrix[:, rows] = 0.0
         e_drag_covariance[i] = 0.0
     sparse = 0
-    for i, (found, before, after) in enumerate(zip(problems, *spans)):
-        # measured from a flight sparsely filmed: e's interval covers the error that sampling makes
-        if found or not sparse_flights(before, after) or "e" not in impacts:
-            continue
-        drop_before = i == 0 and int(numbers[0]) == 1 and not analysis.summary.get("first_flight_is_a_bounce")
-        extra = sparse_flight_e_se(impacts["e"].iloc[i], before, after, drop_before)
-        se_name = se_column_name("e")
-        se = float(impacts[se_name].iloc[i])
-        widened = math.hypot(se, extra)
-        if extra > 0.0:
-            impacts.loc[i, se_name] = widened
-            impacts.loc[i, se_column_name("e", "ci95_low")] = impacts["e"].iloc[i] - Z95 * widened
-            impacts.loc[i, se_column_name("e", "ci95_high")] = impacts["e"].iloc[i] + Z95 * widened
+    if "e" in impacts:
+        e_se = impacts[se_column_name("e")].to_numpy(dtype=float).copy()
+        for i, (found, before, after) in enumerate(zip(problems, *spans)):
+            # measured from a flight sparsely filmed: e's interval covers the error that sampling makes
+            if found or not sparse_flights(before, after):
+                continue
+            drop_before = i == 0 and int(numbers[0]) == 1 and not analysis.summary.get("first_flight_is_a_bounce")
+            extra = sparse_flight_e_se(impacts["e"].iloc[i], before, after, drop_before)
+            widened = math.hypot(e_se[i], extra)
+            notes[i] = "; ".join(filter(None, (_sparse_note(before, after, frame_interval_s, e_se[i], widened),
+                                               notes[i])))
+            e_se[i] = widened
             e_covariance[i, i] += extra ** 2
             e_contact_covariance[i, i] += extra ** 2
-        notes[i] = "; ".join(filter(None, (_sparse_note(before, after, frame_interval_s, se, widened), notes[i])))
-        sparse += 1
+            sparse += 1
+        add_with_interval(impacts, "e", impacts["e"].to_numpy(dtype=float), e_se)
     impacts["note"] = notes
     summary = dict(analysis.summary, impacts_unmeasured=int(sum(bool(found) for found in problems)),
                    impacts_sparsely_filmed=sparse)
