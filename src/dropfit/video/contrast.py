@@ -308,12 +308,13 @@ BLEND_TOLERANCE = 0.15
 MIN_BLEND_TOLERANCE = 12.0
 #: Opening that keeps only skin-coloured areas broader than a ball's blended rim.
 HAND_OPENING = np.ones((5, 5), np.uint8)
+#: A blob whose area exceeds this multiple of its largest inscribed circle's (plus a perimeter's worth for a coarse
+#: grid) is not a lone disc (:func:`is_lone_disc`).
+MAX_FILL_RATIO = 1.3
 #: A skin-coloured area that is a lone disc is a ball of a skin-like colour (crimson, orange, pink: inside the skin
 #: ranges), not a hand, which has fingers, a wrist and an arm, and reaches in from the image's border. A lone disc as
-#: the whole-frame search judges one (:func:`dropfit.video.detect.find_blobs`): its convex hull (a highlight can cut a
-#: notch into the ball's colour) holds at most this multiple of its largest inscribed circle's area, plus a
-#: perimeter's worth ...
-ROUND_FILL_RATIO = 1.3
+#: the whole-frame search judges one (:func:`is_lone_disc`) by its convex hull (a highlight can cut a notch into the
+#: ball's colour) ...
 #: ... the area fills at least this fraction of its hull (a thumb and fingers curled about nothing do not) ...
 ROUND_SOLIDITY = 0.8
 #: ... and at least this fraction of the ring ROUND_RING_PX beyond it is the scene or a blend of the scene with the
@@ -362,7 +363,7 @@ def _ball_blend(frame, background_colour, ball_bgr):
 def hand_pixels(frame, background_colour, ball_bgr=None, min_area_px=0.0):
     """Pixels of a BGR frame (window) that are skin-coloured where the background is not, and differ from
     it in hue by more than ``HAND_MIN_CHROMA``: a hand (areas at least 5 px across: ``HAND_OPENING``), but for
-    lone discs clear of the window's border (``ROUND_FILL_RATIO``): balls of a skin-like colour. With the ball's
+    lone discs clear of the window's border (:func:`is_lone_disc`): balls of a skin-like colour. With the ball's
     colour ``ball_bgr`` known, blends of it with the background are not; with ``min_area_px``, only skin-coloured
     areas at least that large, or reaching the window's border, count (a hand is larger than the ball).
 
@@ -404,9 +405,16 @@ def hand_pixels(frame, background_colour, ball_bgr=None, min_area_px=0.0):
     return hand.astype(bool)
 
 
+def is_lone_disc(area_px, inscribed_radius_px):
+    """Whether a blob of ``area_px`` (px²) whose largest inscribed circle has radius ``inscribed_radius_px`` (px) is a
+    lone disc: no more area than :data:`MAX_FILL_RATIO` times the circle's plus a perimeter's worth (a ball alone,
+    not merged with its shadow or a hand)."""
+    return area_px <= MAX_FILL_RATIO * math.pi * inscribed_radius_px ** 2 + 2 * math.pi * inscribed_radius_px
+
+
 def _without_lone_discs(hand, frame, scene):
     """A uint8 skin mask of a BGR ``frame`` without its lone discs alone before the :class:`SceneColour` ``scene``
-    and clear of the mask's border (``ROUND_FILL_RATIO``): balls of a skin-like colour, not hands."""
+    and clear of the mask's border (:func:`is_lone_disc`): balls of a skin-like colour, not hands."""
     contours, _ = cv2.findContours(hand, cv2.RETR_EXTERNAL, cv2.CHAIN_APPROX_SIMPLE)
     discs = []
     grow = cv2.getStructuringElement(cv2.MORPH_ELLIPSE, (2 * ROUND_RING_PX + 1,) * 2)
@@ -419,8 +427,7 @@ def _without_lone_discs(hand, frame, scene):
         hull_area = np.count_nonzero(hull)
         inscribed = float(cv2.distanceTransform(hull, cv2.DIST_L2, cv2.DIST_MASK_PRECISE).max())
         area = np.count_nonzero(hand[y0:y0 + height, x0:x0 + width] & hull[1:-1, 1:-1])
-        if (area < ROUND_SOLIDITY * hull_area
-                or hull_area > ROUND_FILL_RATIO * math.pi * inscribed ** 2 + 2 * math.pi * inscribed):
+        if area < ROUND_SOLIDITY * hull_area or not is_lone_disc(hull_area, inscribed):
             continue
         # the disc and the ring about it, in a box ROUND_RING_PX larger (within the frame)
         left, top = max(x0 - ROUND_RING_PX, 0), max(y0 - ROUND_RING_PX, 0)

@@ -69,7 +69,7 @@ import numpy as np
 
 from ..numerics import fast_median, least_squares_covariance, robust_sigma
 from .background import Background
-from .contrast import chromaticity, frame_gain, hand_pixels, scene_colour
+from .contrast import chromaticity, frame_gain, hand_pixels, is_lone_disc, scene_colour
 from .opencv import connected_components, cv2, foreground_components
 # the flags documented above, kept importable from here; defined apart so that reading a tracked
 # table does not load OpenCV
@@ -101,10 +101,6 @@ MAX_AXIS_RATIO = 1.6
 #: A blob filling less than this fraction of its second-moment ellipse (4π σ_major σ_minor) is not
 #: a lone disc.
 MIN_ELLIPSE_FILL = 0.85
-
-#: In the whole-frame search, a blob whose area exceeds this multiple of its largest inscribed
-#: circle's (plus a perimeter's worth for the coarse grid) is not a lone disc.
-MAX_FILL_RATIO = 1.3
 
 #: A blob larger than this multiple of the expected disc area (radius + 1 px) has something attached.
 ATTACHED_AREA_FRACTION = 1.3
@@ -774,7 +770,7 @@ class SearchedFrame(NamedTuple):
                 continue
             if expected_radius_px and not 0.5 * expected_radius_px <= radius <= 1.5 * expected_radius_px + scale:
                 continue
-            lone = bool(area <= MAX_FILL_RATIO * math.pi * r_in ** 2 + 2 * math.pi * r_in)
+            lone = bool(is_lone_disc(area, r_in))
             blobs.append(((left + x0 + ix - 1 + 0.5) * scale - 0.5, (top + y0 + iy - 1 + 0.5) * scale - 0.5,
                           radius, lone, False))
         return blobs
@@ -813,7 +809,7 @@ def find_blobs(frame, background, contrast, expected_radius_px=None, gain=1.0):
     list of (float, float, float, bool, bool)
         Per blob (the 50 largest), the centre x, y and radius of its largest inscribed circle, px
         (approximate: searched at a reduced size, :func:`searched_frame`), whether it is a lone disc
-        (no more area than ``MAX_FILL_RATIO`` times the circle's plus a perimeter's worth), and whether it
+        (:func:`dropfit.video.contrast.is_lone_disc`), and whether it
         is a light ball merged with its shadow (then x, y and the radius are its lighter part's, and it is
         not a lone disc).
     """
