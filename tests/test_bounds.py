@@ -14,11 +14,17 @@ import subprocess
 import sys
 import zipfile
 
+import numpy as np
+import pandas as pd
 import pytest
 
+from dropfit.errors import InputError
 from dropfit.files import MAX_ARCHIVE_MEMBER_BYTES
 from dropfit.importers.table import MAX_LINE_CHARACTERS
-from dropfit.video.decode import MAX_FRAME_PIXELS
+from dropfit.video import decode
+from dropfit.video.decode import MAX_FRAME_PIXELS, frame_reduction
+from dropfit.video.opencv import cv2
+from dropfit.video.track import TrackerHints, track_video
 
 from helpers import CALL_TIMEOUT_S, assert_one_line_error
 
@@ -28,6 +34,8 @@ ARCHIVE_REFUSAL_PEAK_MB = 250
 #: ... and a refused clip: FFmpeg's probe of its stream decodes a frame (an 8192 × 8192 clip: 325 MB); decoding
 #: its two frames took 3.0 GB.
 CLIP_REFUSAL_PEAK_MB = 500
+#: The memory the workflow's profile gives a job, MB (workflow/profiles/default).
+JOB_MEMORY_MB = 1000
 
 #: ``python -m dropfit ARGS`` that prints its peak memory (kB) as the last line of standard output.
 _MEASURED = """
@@ -125,3 +133,75 @@ def test_frames_beyond_the_pixel_bound_are_refused_before_decoding(tmp_path):
     container.mux(stream.encode())
     container.close()
     _refused(tmp_path, path, ["8192 × 8192 px", "MAX_FRAME_PIXELS", "scale"], CLIP_REFUSAL_PEAK_MB)
+
+
+def _bouncing_ball_clip(path, width, height, frames, fps=30):
+    """An H.264 clip of a ball (radius a 54th of the frame's height) dropped 1 m with e = 0.8 before a mottled wall,
+    the frame 0.8 m high at the drop; returns the ball's centre (x, y) in px of each frame, from the closed form."""
+    av = pytest.importorskip("av")
+    rng = np.random.default_rng(5)
+    wall = cv2.resize(cv2.GaussianBlur(rng.integers(60, 200, (height // 8, width // 8, 3), dtype=np.uint8), (0, 0), 3),
+                      (width, height), interpolation=cv2.INTER_LINEAR)
+    radius, g, e, px_per_m = height / 54, 9.81, 0.8, 0.8 * height
+    fall = np.sqrt(2 / g)
+    centres = []
+    container = av.open(str(path), "w")
+    stream = container.add_stream("libx264", rate=fps)
+    stream.width, stream.height, stream.pix_fmt = width, height, "yuv420p"
+    stream.options = {"preset": "ultrafast", "crf": "12"}
+    for index in range(frames):
+        t = index / fps
+        if t < fall:
+            above = 1 - g * t * t / 2
+        else:
+            speed, t = e * g * fall, t - fall
+            while t > 2 * speed / g:
+                t, speed = t - 2 * speed / g, e * speed
+            above = speed * t - g * t * t / 2
+        x, y = width / 2 + 0.3, 0.9 * height - radius - above * px_per_m
+        centres.append((x, y))
+        image = wall.copy()
+        cv2.circle(image, (round(x * 16), round(y * 16)), round(radius * 16), (40, 220, 230), -1, cv2.LINE_AA, 4)
+        container.mux(stream.encode(av.VideoFrame.from_ndarray(image, format="bgr24")))
+    container.mux(stream.encode())
+    container.close()
+    return np.array(centres)
+
+
+@pytest.mark.slow
+def test_a_4k_clip_is_tracked_reduced_in_the_memory_a_job_has(tmp_path):
+    """A 4096 × 2160 clip is tracked in frames reduced by 2 as they are decoded (MAX_TRACKED_FRAME_PIXELS): its
+    `dropfit run` stays under the workflow's 1000 MB a job (whole, it took 1.45-1.54 GB), the centres are the
+    closed form's in the reduced frames' px, and the report says in which px they are."""
+    path = tmp_path / "uhd.mp4"
+    truth = _bouncing_ball_clip(path, 4096, 2160, 60)
+    assert frame_reduction(4096, 2160) == 2
+    done, peak_mb = measured_dropfit("run", path, "--out", tmp_path / "out", "--ball-type", "tennis", cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert peak_mb < JOB_MEMORY_MB, f"took {peak_mb:.0f} MB"
+    table = pd.read_csv(tmp_path / "out" / "track.csv", comment="#")
+    ok = table["quality"] == "ok"
+    assert ok.sum() >= 40
+    # a reduced pixel averages coded pixels 2j and 2j + 1: its centre is at coded 2j + 0.5
+    error = np.hypot(table["x_px"] - (truth[:, 0] - 0.5) / 2, table["y_px"] - (truth[:, 1] - 0.5) / 2)[ok]
+    assert error.median() < 0.15 and error.max() < 1.5, error.describe()
+    assert "frames tracked reduced 2 times" in (tmp_path / "out" / "report.html").read_text()
+
+
+def test_hints_in_the_clip_s_own_px_reach_frames_tracked_reduced(tmp_path, monkeypatch):
+    """With the bound lowered so that a 640 × 480 clip is tracked reduced by 2: the centres are the closed form's
+    in the reduced frames' px, a --ball-at-px given in the clip's px is checked against the clip's 640 × 480 (not the reduced
+    frames'), and the table says it is reduced."""
+    monkeypatch.setattr(decode, "MAX_TRACKED_FRAME_PIXELS", 320 * 240)
+    path = tmp_path / "small.mp4"
+    truth = _bouncing_ball_clip(path, 640, 480, 45)
+    table = track_video(path, hints=TrackerHints(ball_at_px=(3, *truth[3])))
+    assert table.attrs["reduced_by"] == 2 and "reduced 2 times" in table.attrs["frames_note"]
+    ok = (table["quality"] == "ok").to_numpy()
+    assert ok.sum() >= 35
+    error = np.hypot(table["x_px"] - (truth[:, 0] - 0.5) / 2, table["y_px"] - (truth[:, 1] - 0.5) / 2)[ok]
+    assert np.median(error) < 0.15, error
+    # 500 px is inside the clip's width (640) and outside the reduced frames' (320)
+    track_video(path, hints=TrackerHints(ball_at_px=(3, 500.0, truth[3, 1])))
+    with pytest.raises(InputError, match="outside the 640x480 px frame"):
+        track_video(path, hints=TrackerHints(ball_at_px=(3, 700.0, truth[3, 1])))

@@ -159,7 +159,7 @@ def fit_summary(summary, impacts, settings=None, ball_type=None):
         "itf": itf,
         "config": _config(summary, settings),
         "data": _data_record(summary),
-        "notes": list(summary.get("notes") or []),
+        "notes": list(summary.get("notes") or []) + ([attrs["frames_note"]] if attrs.get("frames_note") else []),
     }
     if summary.get("sound_and_picture"):  # a video with sound (dropfit.audio.fuse): both sensors' e and combined
         result["sound_and_picture"] = summary["sound_and_picture"]

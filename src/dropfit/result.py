@@ -308,7 +308,7 @@ def _notes(fit, summary, attrs):
         notes.append(f"drag: {fit['drag']['note']}")
     if fit["itf"]["verdict"] == "not applicable":
         notes.append(f"no ITF verdict: {fit['itf'].get('why')}")
-    for key in ("ruler_note", "target_note", "tilt_note", "floor_note", "gravity_calibration_failed"):
+    for key in ("frames_note", "ruler_note", "target_note", "tilt_note", "floor_note", "gravity_calibration_failed"):
         if attrs.get(key):
             notes.append(f"{key.replace('_', ' ')}: {attrs[key]}")
     fusion = fit.get("sound_and_picture") or {}

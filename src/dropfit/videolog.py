@@ -260,6 +260,8 @@ def trajectory_from_video(path, ball_radius_m=None, scale_m_per_px=None, capture
         extra["capture_rate_note"] = (f"the file's rate is taken as the capture rate: the {conflict[0]} scale and the "
                                       f"ball's diameter differ by a factor {max(conflict[1], 1 / conflict[1]):.3g}, "
                                       f"so neither can check it")
+    if table.attrs.get("frames_note"):
+        extra["frames_note"] = table.attrs["frames_note"]
     extra.update(codec=table.attrs.get("codec") or "unknown",
                  speed_error_px=speed_dependent_centre_error_px(table.attrs.get("codec"), rows, time,
                                                                 table["blur_px"].to_numpy()))

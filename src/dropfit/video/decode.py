@@ -45,6 +45,11 @@ FRAME_COUNT_SLACK_FRACTION = 0.02
 #: frame is refused from its stream's size, before any frame is decoded. (A 4K clip of 30 frames or more
 #: still peaks at about 1.4 GB: that wants a bound on the frames held, not on the frame.)
 MAX_FRAME_PIXELS = 4096 * 2160
+#: Frames of more pixels than this are tracked reduced by the least whole factor that brings them under it (a 4K
+#: frame to 2048 × 1080, by FFmpeg's area average as they are decoded): the tracker's memory grows with the
+#: pixels (`dropfit run` of 90 frames peaked at 680 MB at 1920 × 1080, 870 MB at 2560 × 1440 and 1.45-1.54 GB at
+#: 3840 × 2160 and 4096 × 2160), and a ball filmed in 4K is tens of px across at half its size.
+MAX_TRACKED_FRAME_PIXELS = 2560 * 1440
 
 #: Files that are not videos, by their first bytes: (signature, what it is).
 _NOT_VIDEOS = [(b"\x89PNG", "a PNG image"), (b"\xff\xd8\xff", "a JPEG image"), (b"GIF8", "a GIF image"),
@@ -78,6 +83,40 @@ def check_frame_size(width, height, path):
                          f"more than the {MAX_FRAME_PIXELS / 1e6:.1f} MP (4096 × 2160) dropfit decodes "
                          f"(MAX_FRAME_PIXELS); scale the clip down to 4K or less, e.g. ffmpeg -i IN -vf "
                          f"scale=-2:2160 OUT")
+
+
+def frame_reduction(width, height):
+    """The whole factor frames of ``width`` × ``height`` px are tracked reduced by: the least that brings them
+    under :data:`MAX_TRACKED_FRAME_PIXELS` (1 for frames under it).
+
+    Examples
+    --------
+    >>> frame_reduction(1920, 1080), frame_reduction(4096, 2160), frame_reduction(7680, 4320)
+    (1, 2, 3)
+    """
+    return max(1, math.ceil(math.sqrt(width * height / MAX_TRACKED_FRAME_PIXELS)))
+
+
+def reduced_px(coded_px, factor):
+    """A position in px of coded frames (pixel centres at whole numbers) in px of the frames reduced ``factor``
+    times by area averaging: a reduced pixel's centre is the mean of the ``factor`` coded ones it averages.
+
+    Examples
+    --------
+    >>> reduced_px(0.5, 2), reduced_px(2048.5, 2)
+    (0.0, 1024.0)
+    """
+    return (coded_px - (factor - 1) / 2) / factor
+
+
+def reduction_note(factor):
+    """What a report says of frames tracked reduced ``factor`` times (:func:`frame_reduction`); empty for 1."""
+    if factor == 1:
+        return ""
+    return (f"frames tracked reduced {factor} times each way as they were decoded (frames of more than "
+            f"{MAX_TRACKED_FRAME_PIXELS / 1e6:.2g} MP, MAX_TRACKED_FRAME_PIXELS): px in track.csv and the report are "
+            f"of the reduced frames (a coded position is {factor} × px + {(factor - 1) / 2:g}); give --ball-at-px, --roi-px and --ball-radius-px in the "
+            f"clip's own px")
 
 
 def check_frame_count(decoded, declared, path):
@@ -362,6 +401,9 @@ class ClipInfo:
         landscape frames, shown rotated clockwise by a quarter turn).
     codec : str
         The decoder's name (``h264``, ``hevc``, ``mjpeg``, ...).
+    reduced_by : int
+        The whole factor the frames are reduced by as they are decoded (:func:`frame_reduction`): width and
+        height are of the reduced frames, the coded ones are this many times larger.
     container_fps : fractions.Fraction or None
         The container's nominal frame rate, frames/s (29.97 fps is 30000/1001); None when unknown.
     frame_count : int
@@ -378,6 +420,7 @@ class ClipInfo:
     container_fps: Fraction | None
     frame_count: int
     duration_s: float
+    reduced_by: int = 1
 
 
 class VideoFile:
@@ -432,9 +475,11 @@ class VideoFile:
         self._first = first
         self._start_pts = stream.start_time if stream.start_time is not None else first.pts
         rotation = round((first.rotation or 0) / 90) * 90 % 360
-        height, width = (first.width, first.height) if rotation in (90, 270) else (first.height, first.width)
+        self._reduced_by = frame_reduction(first.width, first.height)
+        coded_width, coded_height = self._reduced_size(first)
+        height, width = (coded_width, coded_height) if rotation in (90, 270) else (coded_height, coded_width)
         self.info = ClipInfo(self.path, width, height, rotation, stream.codec_context.name, fps, int(declared),
-                             duration_s)
+                             duration_s, self._reduced_by)
 
     def __enter__(self):
         return self
@@ -446,13 +491,31 @@ class VideoFile:
         """Close the file."""
         self._container.close()
 
+    _reduced_by = 1  # (until the first frame is seen)
+
+    def _reduced_size(self, frame):
+        """The coded size (width, height) of ``frame`` reduced :attr:`ClipInfo.reduced_by` times, px: even, so that
+        4:2:0 chroma stays whole."""
+        if self._reduced_by == 1:
+            return frame.width, frame.height
+        return (frame.width // self._reduced_by // 2 * 2, frame.height // self._reduced_by // 2 * 2)
+
+    def _reduced(self, frame):
+        """``frame`` reduced :attr:`ClipInfo.reduced_by` times by area averaging, in its own pixel format."""
+        if self._reduced_by == 1:
+            return frame
+        width, height = self._reduced_size(frame)
+        return frame.reformat(width=width, height=height, interpolation="AREA")
+
     def _decoded(self):
-        """av.VideoFrame objects from the current position, skipping packets the decoder refuses."""
+        """av.VideoFrame objects from the current position (reduced: :meth:`_reduced`), skipping packets the
+        decoder refuses."""
         for packet in self._container.demux(self._stream):
             try:
-                yield from packet.decode()
+                frames = packet.decode()
             except av.FFmpegError:  # a damaged frame: a gap in the times (a truncated file fails the count)
                 continue
+            yield from map(self._reduced, frames)
 
     def time_s(self, frame):
         """Presentation time of a decoded frame, s from the stream's start (NaN without a time stamp)."""
@@ -566,7 +629,7 @@ class VideoFile:
             if frame is None:
                 return None
             frame.time_base = self._stream.time_base  # (a frame drained from a decoder has none)
-            samples.append((self.time_s(frame), self.image(frame)))
+            samples.append((self.time_s(frame), self.image(self._reduced(frame))))
         return samples
 
     def _samples_by_stride(self, count):

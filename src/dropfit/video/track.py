@@ -53,7 +53,7 @@ from .background import (BACKGROUND_SAMPLES, Background, background_without_ball
 from .contrast import (CHANNELS, CHROMA, GREY, Contrast, available_contrasts, contrast_of, frame_gain, hand_pixels,
                        scene_colour, skin_mask)
 from .decode import (MIN_FRAMES, LazyFrame, Progress, VideoFile, check_frame_count, check_video_file, frame_times,
-                     spread_indices)
+                     reduced_px, reduction_note, spread_indices)
 from .detect import find_ball, measure_ball, searched_frame
 from .link import extrapolated, find_flight
 from .opencv import cv2
@@ -1009,6 +1009,17 @@ class _KeptFrames:
             yield frame
 
 
+def _reduced_hints(hints, expected_radius_px, factor):
+    """``hints`` and ``expected_radius_px`` (px of the coded frames) in px of frames reduced ``factor`` times."""
+    if factor == 1:
+        return hints, expected_radius_px
+    roi = None if hints.roi_px is None else tuple(value / factor for value in hints.roi_px)  # pixel edges
+    ball_at = None if hints.ball_at_px is None else (hints.ball_at_px[0],
+                                                     *(reduced_px(value, factor) for value in hints.ball_at_px[1:]))
+    return (hints._replace(roi_px=roi, ball_at_px=ball_at),
+            None if expected_radius_px is None else expected_radius_px / factor)
+
+
 def _check_hints(hints, frames, shape, name):
     """InputError for a hint that cannot apply to a clip of ``frames`` frames of ``shape`` (rows, columns) px: a
     frame of ``--ball-at-px`` beyond the clip or a point outside the frame, a ``--roi-px`` outside it."""
@@ -1100,6 +1111,8 @@ def track_video_and_background(path, capture_fps=None, expected_radius_px=None, 
     check_video_file(path)
     with VideoFile(path) as video:
         info = video.info
+        # the user's px are of the coded frames; the tracker's of the frames as decoded
+        tracked_hints, expected_radius_px = _reduced_hints(hints, expected_radius_px, info.reduced_by)
         samples = video.samples(background_samples)
         if not samples:
             raise InputError(f"{name}: the frames could not be decoded consistently (corrupt video)")
@@ -1107,7 +1120,7 @@ def track_video_and_background(path, capture_fps=None, expected_radius_px=None, 
         # the frames are decoded while the scene is read from the samples
         with video.frames(Progress(path.name, info.frame_count, progress_stream), lazy=True) as frames:
             background, contrasts = scene_and_contrasts(sample_images, expected_radius_px, hints.ball_colour_bgr)
-            tracker = BallTracker(background, expected_radius_px, contrasts[0], hints)
+            tracker = BallTracker(background, expected_radius_px, contrasts[0], tracked_hints)
             kept = _KeptFrames(frame_memory_bytes)
             stamps, rows = [], []
             for _, time_s, image in frames:
@@ -1115,7 +1128,8 @@ def track_video_and_background(path, capture_fps=None, expected_radius_px=None, 
                 rows.append(tracker.update(image))
                 kept.keep(image, rows[-1])
     check_frame_count(len(rows), info.frame_count, path)
-    _check_hints(hints, len(rows), background.grey.shape, name)
+    _check_hints(hints, len(rows), tuple(info.reduced_by * size for size in background.grey.shape), name)
+    hints = tracked_hints
     if len(rows) < MIN_FRAMES:
         raise InputError(f"{name}: the video has only {len(rows)} frame{'s' if len(rows) > 1 else ''}; a drop "
                          f"test needs at least {MIN_FRAMES}, and tens in each flight")
@@ -1143,5 +1157,6 @@ def track_video_and_background(path, capture_fps=None, expected_radius_px=None, 
     table.attrs.update(source=str(path), container_fps=container_fps, capture_fps=capture_fps,
                        time_source=how, frame_count_header=info.frame_count, rotation_deg=info.rotation_deg,
                        codec=info.codec, noise_grey=background.noise_grey, contrast=contrast.name,
-                       in_colour=contrast.in_colour)
+                       in_colour=contrast.in_colour, reduced_by=info.reduced_by,
+                       frames_note=reduction_note(info.reduced_by))
     return TrackedVideo(_found_or_raise(table, path), background)
