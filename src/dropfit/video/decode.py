@@ -42,8 +42,8 @@ FRAME_COUNT_SLACK_FRACTION = 0.02
 #: the largest a phone films. Memory grows with the frame (the decoded frames held ahead, the background's
 #: samples, the tracker's working copies): a 3-frame UHD clip peaked at 0.82 GB, an 8K one (7680 × 4320) at
 #: 2.8 GB, a 2-frame 8192 × 8192 one at 3.0 GB, so no frame above 4K can fit the 1000 MB a job has. A larger
-#: frame is refused from its stream's size, before any frame is decoded. (A 4K clip of 30 frames or more
-#: still peaks at about 1.4 GB: that wants a bound on the frames held, not on the frame.)
+#: frame is refused from its stream's size, before any frame is decoded. (Frames under it are tracked within a
+#: job's memory by :data:`MAX_TRACKED_FRAME_PIXELS`.)
 MAX_FRAME_PIXELS = 4096 * 2160
 #: Frames of more pixels than this are tracked reduced by the least whole factor that brings them under it (a 4K
 #: frame to 2048 × 1080, by FFmpeg's area average as they are decoded): the tracker's memory grows with the
@@ -115,8 +115,8 @@ def reduction_note(factor):
         return ""
     return (f"frames tracked reduced {factor} times each way as they were decoded (frames of more than "
             f"{MAX_TRACKED_FRAME_PIXELS / 1e6:.2g} MP, MAX_TRACKED_FRAME_PIXELS): px in track.csv and the report are "
-            f"of the reduced frames (a coded position is {factor} × px + {(factor - 1) / 2:g}); give --ball-at-px, --roi-px and --ball-radius-px in the "
-            f"clip's own px")
+            f"of the reduced frames (a coded position is {factor} × px + {(factor - 1) / 2:g}); give --ball-at-px, "
+            f"--roi-px and --ball-radius-px in the clip's own px")
 
 
 def check_frame_count(decoded, declared, path):
