@@ -18,6 +18,25 @@ SUPERSAMPLING = 8
 #: Seconds a single ``dropfit`` call may take (imports included) before the test gives up.
 CALL_TIMEOUT_S = 120  # s
 
+#: ``python -m dropfit ARGS`` that prints its peak memory (kB) as the last line of standard output: ``VmHWM`` of
+#: ``/proc/self/status`` (Linux), unlike ``ru_maxrss`` not inherited from the process it was forked from.
+_MEASURED = """
+import re, runpy, sys
+sys.argv = ["dropfit", *sys.argv[1:]]
+try:
+    runpy.run_module("dropfit", run_name="__main__")
+finally:
+    with open("/proc/self/status") as status:
+        print(re.search(r"VmHWM:\\s*(\\d+) kB", status.read()).group(1), flush=True)
+"""
+
+
+def measured_dropfit(*args, cwd, timeout_s=CALL_TIMEOUT_S):
+    """Run dropfit with ``args`` in ``cwd`` in a new process: (the CompletedProcess, its peak memory in MB)."""
+    done = subprocess.run([sys.executable, "-c", _MEASURED, *map(str, args)], cwd=cwd, capture_output=True,
+                          text=True, timeout=timeout_s)
+    return done, int(done.stdout.split()[-1]) / 1024
+
 
 def write_log(path, frame, comment="# synthetic height log written by the tests"):
     """Write ``frame`` as a height-log CSV, the way ``dropfit synth`` does (comment line, ``%.6f``).

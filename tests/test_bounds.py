@@ -2,7 +2,9 @@
 
 Each hostile input is made here, small on disk: a zip whose one member unpacks to far more than
 :data:`dropfit.files.MAX_ARCHIVE_MEMBER_BYTES` (a phyphox export, a Tracker ``.trz``), a phyphox set of
-a line longer than :data:`dropfit.importers.table.MAX_LINE_CHARACTERS`, and a clip of frames larger than
+a line longer than :data:`dropfit.importers.table.MAX_LINE_CHARACTERS`, tables and projects over
+:data:`dropfit.files.MAX_TABLE_BYTES` or :data:`dropfit.files.MAX_TABLE_LINES`, sound over
+:data:`dropfit.audio.decode.MAX_SOUND_SAMPLES`, and a clip of frames larger than
 :data:`dropfit.video.decode.MAX_FRAME_PIXELS`. Each runs ``python -m dropfit measure`` in a subprocess that
 reports its own peak memory (``VmHWM`` of ``/proc/self/status``: unlike ``ru_maxrss``, not inherited from
 the test process it was forked from), so that what other tests hold does not count.
@@ -10,7 +12,6 @@ the test process it was forked from), so that what other tests hold does not cou
 
 from __future__ import annotations
 
-import subprocess
 import sys
 import zipfile
 
@@ -19,14 +20,14 @@ import pandas as pd
 import pytest
 
 from dropfit.errors import InputError
-from dropfit.files import MAX_ARCHIVE_MEMBER_BYTES
+from dropfit.files import MAX_ARCHIVE_MEMBER_BYTES, MAX_TABLE_BYTES, MAX_TABLE_LINES
 from dropfit.importers.table import MAX_LINE_CHARACTERS
 from dropfit.video import decode
 from dropfit.video.decode import MAX_FRAME_PIXELS, frame_reduction
 from dropfit.video.opencv import cv2
 from dropfit.video.track import TrackerHints, track_video
 
-from helpers import CALL_TIMEOUT_S, assert_one_line_error
+from helpers import assert_one_line_error, measured_dropfit
 
 #: The most memory a refused archive may take, MB: the interpreter with dropfit, numpy and PyAV loaded takes
 #: 130 MB; reading the 128 MiB members below whole took 390-410 MB (and a 1.6 GB one 4.86 GB).
@@ -37,25 +38,7 @@ CLIP_REFUSAL_PEAK_MB = 500
 #: The memory the workflow's profile gives a job, MB (workflow/profiles/default).
 JOB_MEMORY_MB = 1000
 
-#: ``python -m dropfit ARGS`` that prints its peak memory (kB) as the last line of standard output.
-_MEASURED = """
-import re, runpy, sys
-sys.argv = ["dropfit", *sys.argv[1:]]
-try:
-    runpy.run_module("dropfit", run_name="__main__")
-finally:
-    with open("/proc/self/status") as status:
-        print(re.search(r"VmHWM:\\s*(\\d+) kB", status.read()).group(1), flush=True)
-"""
-
 pytestmark = pytest.mark.skipif(not sys.platform.startswith("linux"), reason="peak memory from /proc (Linux)")
-
-
-def measured_dropfit(*args, cwd):
-    """Run dropfit with ``args`` in ``cwd``: (the CompletedProcess, its peak memory in MB)."""
-    done = subprocess.run([sys.executable, "-c", _MEASURED, *map(str, args)], cwd=cwd, capture_output=True,
-                          text=True, timeout=CALL_TIMEOUT_S)
-    return done, int(done.stdout.split()[-1]) / 1024
 
 
 def _zip_with(path, members):
@@ -82,6 +65,10 @@ def _refused(tmp_path, path, words, peak_limit_mb=ARCHIVE_REFUSAL_PEAK_MB):
 def test_the_bounds_leave_room_for_real_inputs():
     assert 8 * 2 ** 20 <= MAX_ARCHIVE_MEMBER_BYTES <= 64 * 2 ** 20
     assert 3840 * 2160 <= MAX_FRAME_PIXELS < 7680 * 4320
+    assert MAX_TABLE_LINES > 10 ** 6 and MAX_TABLE_BYTES >= 10 ** 6 * len("0.999999,0.53303\n")  # a second at 1 MHz
+    from dropfit.audio.decode import MAX_SOUND_SAMPLES, MAX_SOUND_VALUES
+
+    assert MAX_SOUND_SAMPLES >= 120 * 48_000 and MAX_SOUND_VALUES >= 2 * MAX_SOUND_SAMPLES  # minutes of stereo
 
 
 def test_a_phyphox_set_that_unpacks_beyond_the_bound_is_refused(tmp_path):
@@ -113,6 +100,83 @@ def test_a_table_line_beyond_the_bound_is_refused_not_an_internal_error(tmp_path
                                                 "Position.csv": (b'"Time (s)","Distance (m)"\n' + line
                                                                  + b"0.1,0.2\n0.2,0.3\n", 1)})
     _refused(tmp_path, path, ["200000 characters", str(MAX_LINE_CHARACTERS), "MAX_LINE_CHARACTERS"])
+
+
+def test_a_table_over_the_byte_bound_is_refused_before_it_is_read(tmp_path):
+    # a 1 GB .trk of spaces took 2.18 GB; the file's size refuses it now, not what reading it costs
+    for name in ("log.csv", "drop.trk"):
+        path = tmp_path / name
+        path.write_bytes((b"time_s,y_m\n" if name.endswith(".csv") else b"<?xml version='1.0'?>\n")
+                         + b" " * MAX_TABLE_BYTES)
+        _refused(tmp_path, path, ["MAX_TABLE_BYTES", "32 MiB", "every second row"])
+
+
+def test_a_misnamed_video_over_the_byte_bound_is_named_a_video(tmp_path):
+    path = tmp_path / "clip.csv"
+    with open(path, "wb") as handle:
+        handle.write(b"\x00\x00\x00\x18ftypmp42")
+        handle.truncate(MAX_TABLE_BYTES + 1)
+    _refused(tmp_path, path, ["MP4 or MOV video", ".mp4"])
+
+
+def test_a_table_of_more_lines_than_the_bound_is_refused(tmp_path):
+    # 'i,1' rows: the most lines a file under the byte bound can hold, each a row that costs memory
+    path = tmp_path / "log.csv"
+    path.write_text("time_s,y_m\n" + "".join(f"{i},1\n" for i in range(MAX_TABLE_LINES)))
+    assert path.stat().st_size < MAX_TABLE_BYTES
+    _refused(tmp_path, path, [f"{MAX_TABLE_LINES + 1:,} lines", "MAX_TABLE_LINES"])
+
+
+def test_a_tracker_project_of_more_xml_than_an_archive_may_hold_is_refused(tmp_path):
+    path = tmp_path / "drop.trk"
+    path.write_bytes(b"<?xml version='1.0'?>\n<object>" + b"<a/>" * (MAX_ARCHIVE_MEMBER_BYTES // 4) + b"</object>")
+    _refused(tmp_path, path, ["of XML", "MAX_ARCHIVE_MEMBER_BYTES", "Tracker"])
+
+
+def _clicks_wav(path, seconds, channels, rate_hz=8000):
+    """A sound file of low-level noise, ``seconds`` long (16-bit PCM)."""
+    import soundfile
+
+    noise = np.random.default_rng(3).normal(0.0, 1e-3, (int(seconds * rate_hz), channels))
+    soundfile.write(path, noise, rate_hz, subtype="PCM_16")
+    return path
+
+
+@pytest.mark.parametrize("channels, bound", [(1, "MAX_SOUND_SAMPLES"), (6, "MAX_SOUND_VALUES")])
+def test_sound_beyond_its_bound_is_refused_before_it_is_decoded(tmp_path, channels, bound):
+    from dropfit.audio.decode import MAX_SOUND_SAMPLES, MAX_SOUND_VALUES
+
+    most = min(MAX_SOUND_SAMPLES, MAX_SOUND_VALUES // channels)
+    path = _clicks_wav(tmp_path / "long.wav", most / 8000 + 1, channels)
+    done, peak_mb = measured_dropfit("run", path, "--out", tmp_path / "out", cwd=tmp_path)
+    assert done.returncode == 1, done.stderr
+    assert_one_line_error(done.stderr, path.name)
+    for word in (bound, f"{most:,} samples a channel", "ffmpeg"):
+        assert word in done.stderr, done.stderr
+    assert peak_mb < ARCHIVE_REFUSAL_PEAK_MB, f"took {peak_mb:.0f} MB"
+
+
+def test_compressed_sound_is_counted_while_it_is_decoded(tmp_path, monkeypatch):
+    # a compressed file's length is known only by decoding it: the count stops it at the bound
+    import av
+
+    from dropfit.audio import decode
+
+    monkeypatch.setattr(decode, "MAX_SOUND_SAMPLES", 8000)
+    path = tmp_path / "long.m4a"
+    with av.open(str(path), "w") as output:
+        stream = output.add_stream("aac", rate=8000)
+        stream.layout = "mono"
+        noise = (np.random.default_rng(4).normal(0, 300, 3 * 8000)).astype(np.int16)
+        for start in range(0, noise.size, 1024):
+            frame = av.AudioFrame.from_ndarray(noise[None, start:start + 1024], format="s16", layout="mono")
+            frame.sample_rate = 8000
+            for packet in stream.encode(frame):
+                output.mux(packet)
+        for packet in stream.encode(None):
+            output.mux(packet)
+    with pytest.raises(InputError, match=r"lasts more than 1 s of 1 channel.*MAX_SOUND_SAMPLES"):
+        decode.read_sound(path)
 
 
 def test_frames_beyond_the_pixel_bound_are_refused_before_decoding(tmp_path):

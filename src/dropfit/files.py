@@ -225,6 +225,40 @@ def read_bytes(path, what="file"):
         raise InputError(unreadable(path, error)) from None
 
 
+#: The most bytes dropfit reads from a text input (a height log, a tracking table, a sensor export, a Tracker
+#: project): 32 MiB, a second's log at 1 MHz (10⁶ rows, 18-19 MB) and room for wider rows. Checked from the
+#: file's size before it is read (a 1 GB ``.trk`` of spaces took 2.18 GB).
+MAX_TABLE_BYTES = 32 * 1024 * 1024
+#: The most lines dropfit reads from a text input: a table costs memory by its rows (`dropfit run` of a log of
+#: 10⁶ rows peaked at 576 MB, of 10⁶ rows over seven flights at 850 MB, and of 1.2 × 10⁶ rows at 1055 MB), so
+#: 10⁶ data rows, a header and comments keep the largest table accepted under the 1000 MB a job has
+#: (benchmarks/reader_peaks.py).
+MAX_TABLE_LINES = 1_000_100
+
+
+def read_table_bytes(path, what, check_head=None):
+    """The bytes of the text input ``path`` (a table, a log or a project, named by ``what``), as :func:`read_bytes`,
+    with :class:`InputError` for one of more than :data:`MAX_TABLE_BYTES` or :data:`MAX_TABLE_LINES`.
+    ``check_head(path, head)``, given, may refuse a file too large by what its first 64 KiB show it is (a video
+    or a spreadsheet misnamed), the truer cause."""
+    path = check_input_file(path, what)
+    advice = ("keep every second row (the flights need far fewer samples) or cut the file into parts of "
+              "fewer drops")
+    size = path.stat().st_size
+    if size > MAX_TABLE_BYTES:
+        if check_head is not None:
+            with open(path, "rb") as handle:
+                check_head(path, handle.read(65536))
+        raise InputError(f"{shown_path(path)}: holds {_mib(size)}, more than the {_mib(MAX_TABLE_BYTES)} dropfit reads "
+                         f"from a table, log or project (MAX_TABLE_BYTES); {advice}")
+    raw = read_bytes(path, what)
+    lines = max(raw.count(b"\n"), raw.count(b"\r")) + (not raw.endswith((b"\n", b"\r")))
+    if lines > MAX_TABLE_LINES:
+        raise InputError(f"{shown_path(path)}: has {lines:,} lines, more than the {MAX_TABLE_LINES:,} dropfit reads "
+                         f"from a table, log or project (MAX_TABLE_LINES); {advice}")
+    return raw
+
+
 #: The most bytes a member of a zip archive (a phyphox export's data set, a ``.trz``'s ``.trk``) may unpack to:
 #: 16 MiB. A phyphox set of a minute's drops at its fastest rate (500 Hz, five columns) is under 3 MB, a
 #: Tracker project of thousands of marked frames a few MB; a table's text costs many times its bytes in

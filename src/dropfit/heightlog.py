@@ -23,7 +23,7 @@ import pandas as pd
 import xarray as xr
 
 from .errors import InputError, one_line, shown, shown_path
-from .files import check_input_file, decoded_text, read_bytes
+from .files import check_input_file, decoded_text, read_table_bytes
 from .physics import STANDARD_GRAVITY_M_S2, drag_parameter
 
 TIME_UNITS_S = {"s": 1.0, "ms": 1e-3}
@@ -215,7 +215,7 @@ def read_height_log(path, horizontal=False, exact_repeats=False):
         height at all.
     """
     path = Path(path)
-    raw = read_bytes(path, "height log (CSV) or video")
+    raw = read_table_bytes(path, "height log (CSV) or video", check_not_other_file)
     check_not_other_file(path, raw)
     name = shown_path(path)
     text, _ = decoded_text(raw)

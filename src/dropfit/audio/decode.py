@@ -25,6 +25,13 @@ PYAV_SUFFIXES = (".m4a", ".aac", ".mp3", ".opus", ".wma", ".caf")
 AUDIO_SUFFIXES = SOUNDFILE_SUFFIXES + PYAV_SUFFIXES
 #: A recording shorter than this has no bounce to hear, s.
 MIN_DURATION_S = 0.05
+#: The most samples (per channel) dropfit analyses: 2.5 minutes at 48 kHz. The analysis costs about 100 bytes a
+#: sample (the envelope and its filters, all at the sample rate): `dropfit run` of 150 s at 48 kHz peaked at
+#: 900 MB, so that a job keeps within its 1000 MB.
+MAX_SOUND_SAMPLES = 150 * 48_000
+#: The most values (samples × channels) dropfit decodes: 150 s of stereo at 48 kHz (952 MB in `dropfit run`); each
+#: channel more costs 8 bytes a sample until the channels are averaged.
+MAX_SOUND_VALUES = 2 * MAX_SOUND_SAMPLES
 
 
 @dataclass
@@ -125,13 +132,36 @@ def _read_with_soundfile(path, name):
     import soundfile
 
     try:
-        samples, rate = soundfile.read(str(path), dtype="float64", always_2d=True)
         info = soundfile.info(str(path))
+        _check_size(name, info.frames, info.channels, info.samplerate)
+        # no further than the bound: a header may understate the samples that follow it
+        samples, rate = soundfile.read(str(path), frames=_most_samples(info.channels) + 1, dtype="float64",
+                                       always_2d=True)
     except (RuntimeError, soundfile.LibsndfileError, ValueError) as error:
         raise InputError(f"{name}: cannot be read as sound: the file is damaged or not a {str(path).rsplit('.', 1)[-1]} "
                          f"file ({str(error).splitlines()[0] if str(error) else type(error).__name__}); export it again") \
             from None
+    _check_size(name, samples.shape[0], samples.shape[1], rate, whole=False)
     return Sound(samples=samples, rate_hz=float(rate), codec=f"{info.format} {info.subtype}")
+
+
+def _most_samples(channels):
+    """The most samples per channel dropfit decodes of a sound of ``channels`` channels."""
+    return min(MAX_SOUND_SAMPLES, MAX_SOUND_VALUES // max(channels, 1))
+
+
+def _check_size(name, samples, channels, rate_hz, whole=True):
+    """InputError for a sound of more than :data:`MAX_SOUND_SAMPLES` a channel or :data:`MAX_SOUND_VALUES` in all
+    (``samples`` a channel: all of them if ``whole``, else those decoded before the bound stopped it)."""
+    if samples <= _most_samples(channels):
+        return
+    most = _most_samples(channels)
+    bound = "MAX_SOUND_SAMPLES" if most == MAX_SOUND_SAMPLES else "MAX_SOUND_VALUES, samples × channels"
+    length = f"{samples / rate_hz:.0f} s" if rate_hz > 0 else f"{samples:,} samples"
+    raise InputError(f"{name}: the sound lasts {'' if whole else 'more than '}{length} of {channels} "
+                     f"channel{'s' if channels != 1 else ''}, more than the {most:,} samples a channel "
+                     f"({most / rate_hz:.0f} s at its {rate_hz:g} Hz) dropfit analyses ({bound}); cut it to the "
+                     f"drops, e.g. ffmpeg -i IN -ss START -t 60 -ac 1 OUT.wav, and give each part")
 
 
 def _read_with_pyav(path, name, container_clock):
@@ -148,7 +178,7 @@ def _read_with_pyav(path, name, container_clock):
         if not container.streams.audio:
             raise InputError(f"{name}: has no sound track; record with sound, or give the sound file")
         stream = container.streams.audio[0]
-        blocks, start = [], None
+        blocks, start, decoded = [], None, 0
         try:
             for frame in container.decode(stream):
                 if start is None and frame.pts is not None and frame.time_base is not None:
@@ -158,6 +188,9 @@ def _read_with_pyav(path, name, container_clock):
                 block = block.T if frame.format.is_planar else block.reshape(-1, len(frame.layout.channels))
                 blocks.append(_full_scale(block))
                 rate = frame.sample_rate
+                decoded += block.shape[0]
+                if decoded > _most_samples(block.shape[1]):  # counted as decoded: a container's duration may lie
+                    _check_size(name, decoded, block.shape[1], rate, whole=False)
         except av.FFmpegError as error:
             if not blocks:
                 raise InputError(f"{name}: its sound track cannot be decoded ({type(error).__name__}); export it "

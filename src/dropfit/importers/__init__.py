@@ -59,7 +59,7 @@ def read_track(path, options=None):
     """
     from . import highspeed, sensors, tracker
     from .table import text_lines
-    from ..files import read_bytes
+    from ..files import read_table_bytes
     from ..heightlog import check_not_other_file
 
     options = options or ImportOptions()
@@ -68,7 +68,8 @@ def read_track(path, options=None):
                          f"{', '.join(FORMATS)}")
     if options.format == "mraw" or options.format is None and highspeed.is_highspeed(path):
         return _finished(path, highspeed.read_highspeed(path, options))
-    raw = read_bytes(path, "height log, tracking table, sensor export (CSV) or video")
+    raw = read_table_bytes(path, "height log, tracking table, sensor export (CSV) or video",
+                           lambda path_, head: head.startswith(b"PK") or check_not_other_file(path_, head))
     if options.format == "tracker" and raw.lstrip()[:1] in (b"<", b"P") or \
             options.format in (None, "tracker") and _is_tracker_project(path, raw):
         return _finished(path, tracker.read_project(path, raw, options))

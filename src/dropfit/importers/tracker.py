@@ -32,7 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..errors import InputError, shown, shown_path
-from ..files import ZIP_ERRORS, read_archive_member
+from ..files import MAX_ARCHIVE_MEMBER_BYTES, ZIP_ERRORS, read_archive_member
 from .base import LENGTH_UNITS_M, ImportedTrack, pick_track
 from .table import Table, describe, parse_column, read_table, split, track_from_table
 
@@ -162,9 +162,17 @@ def parse_project(path, xml_bytes):
                           delta_t_ms / 1000.0 if delta_t_ms and delta_t_ms > 0 else None, unit)
 
 
+_TOO_LARGE_ADVICE = "save a project of fewer frames in Tracker, or export the track as a table (CSV)"
+
+
 def project_bytes(path, raw):
-    """The ``.trk`` XML of a ``.trk`` file or of a ``.trz`` project (the first ``.trk`` in the zip)."""
+    """The ``.trk`` XML of a ``.trk`` file or of a ``.trz`` project (the first ``.trk`` in the zip), no more than
+    :data:`dropfit.files.MAX_ARCHIVE_MEMBER_BYTES` either way (16 MiB of XML tags took 460 MB to parse)."""
     if not raw.startswith(b"PK"):
+        if len(raw) > MAX_ARCHIVE_MEMBER_BYTES:
+            raise InputError(f"{shown_path(path)}: holds {len(raw) / 1024 ** 2:.0f} MiB of XML, more than the "
+                             f"{MAX_ARCHIVE_MEMBER_BYTES // 1024 ** 2} MiB dropfit reads from a Tracker project "
+                             f"(MAX_ARCHIVE_MEMBER_BYTES); {_TOO_LARGE_ADVICE}")
         return raw
     try:
         with zipfile.ZipFile(io.BytesIO(raw)) as archive:
@@ -172,17 +180,16 @@ def project_bytes(path, raw):
             if not names:
                 raise InputError(f"{shown_path(path)}: is a zip archive without a Tracker project (.trk) in it; give "
                                  f"the .trz saved by Tracker, or export the data as CSV")
-            return read_archive_member(path, archive, names[0], "save a project of fewer frames in Tracker, "
-                                                                "or export the track as a table (CSV)")
+            return read_archive_member(path, archive, names[0], _TOO_LARGE_ADVICE)
     except ZIP_ERRORS:
         raise InputError(f"{shown_path(path)}: is a damaged zip archive (a .trz?); save the project again") from None
 
 
 def read_tracker_project(path):
     """The :class:`TrackerProject` of a ``.trk`` or ``.trz`` file."""
-    from ..files import read_bytes
+    from ..files import read_table_bytes
 
-    return parse_project(path, project_bytes(path, read_bytes(path, "Tracker project (.trk, .trz)")))
+    return parse_project(path, project_bytes(path, read_table_bytes(path, "Tracker project (.trk, .trz)")))
 
 
 def read_project(path, raw, options):
