@@ -230,7 +230,7 @@ def read_bytes(path, what="file"):
 #: file's size before it is read (a 1 GB ``.trk`` of spaces took 2.18 GB).
 MAX_TABLE_BYTES = 32 * 1024 * 1024
 #: The most lines dropfit reads from a text input: a table costs memory by its rows (`dropfit run` of a log of
-#: 10⁶ rows peaked at 576 MB, of 10⁶ rows over seven flights at 850 MB, and of 1.2 × 10⁶ rows at 1055 MB), so
+#: 10⁶ rows peaked at 575 MB, of 10⁶ rows over seven flights at 850 MB, and of 1.2 × 10⁶ rows at 1055 MB), so
 #: 10⁶ data rows, a header and comments keep the largest table accepted under the 1000 MB a job has
 #: (benchmarks/reader_peaks.py).
 MAX_TABLE_LINES = 1_000_100

@@ -27,9 +27,9 @@ AUDIO_SUFFIXES = SOUNDFILE_SUFFIXES + PYAV_SUFFIXES
 MIN_DURATION_S = 0.05
 #: The most samples (per channel) dropfit analyses: 2.5 minutes at 48 kHz. The analysis costs about 100 bytes a
 #: sample (the envelope and its filters, all at the sample rate): `dropfit run` of 150 s at 48 kHz peaked at
-#: 900 MB, so that a job keeps within its 1000 MB.
+#: 875 MB (benchmarks/reader_peaks.py), so that a job keeps within its 1000 MB.
 MAX_SOUND_SAMPLES = 150 * 48_000
-#: The most values (samples × channels) dropfit decodes: 150 s of stereo at 48 kHz (952 MB in `dropfit run`); each
+#: The most values (samples × channels) dropfit decodes: 150 s of stereo at 48 kHz (930 MB in `dropfit run`); each
 #: channel more costs 8 bytes a sample until the channels are averaged.
 MAX_SOUND_VALUES = 2 * MAX_SOUND_SAMPLES
 
