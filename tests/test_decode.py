@@ -238,13 +238,19 @@ def test_ball_in_the_background_is_tracked_again_from_memory(tmp_path, monkeypat
     monkeypatch.setattr(av, "open", lambda *args, **kwargs: opened.append(args[0]) or real_open(*args, **kwargs))
     whole = track_video(path)
     assert len(opened) == 1
-    cropped = track_video(path, frame_memory_bytes=0)
+    cropped = track_video(path, frame_memory_bytes=2 * frames[0].nbytes)  # two frames whole, 45 crops
     # a channel after the first decodes the file for each of its passes (the background cleaned up to
     # MAX_BACKGROUND_REFINEMENTS times)
     assert len(opened) - 1 <= 1 + (len(CHANNELS) - 1) * (1 + MAX_BACKGROUND_REFINEMENTS)
     assert cropped.attrs["contrast"] == whole.attrs["contrast"]
     assert (whole["quality"] == cropped["quality"]).all()
     assert np.allclose(whole["x_px"], cropped["x_px"], atol=0.05, equal_nan=True)
+    # crops over the budget too (a long clip of a large ball) are let go: every pass decodes the file again
+    opened.clear()
+    decoded = track_video(path, frame_memory_bytes=0)
+    assert len(opened) >= 2
+    assert (whole["quality"] == decoded["quality"]).all()
+    assert np.allclose(whole["x_px"], decoded["x_px"], atol=0.05, equal_nan=True)
     ok = whole["quality"] == QUALITY_OK
     error = np.hypot(whole["x_px"] - centres[:, 0], whole["y_px"] - centres[:, 1])
     assert ok.any() and error[ok].max() < CENTRE_TOLERANCE_PX

@@ -933,8 +933,14 @@ def track_frames(frames, times_s, expected_radius_px=None, *, background=None, s
 
 
 #: Decoded frames of one clip kept whole for tracking again (ball in the background) up to this
-#: many bytes; beyond, only crops around the ball are kept (:class:`_KeptFrames`).
-FRAME_MEMORY_BUDGET_BYTES = 400 * 2**20
+#: many bytes; beyond, only crops around the ball are kept (:class:`_KeptFrames`). 256 MiB (400 before): with
+#: a 1080p clip's scene and decoder, 400 MiB of frames took a job over its 1000 MB.
+FRAME_MEMORY_BUDGET_BYTES = 256 * 2**20
+#: The share of that budget the crops may take: the whole frames they replace do not give all their memory back,
+#: and a pass that decodes the clip again needs its own. `dropfit run` of 3000 frames of 640 × 480 with a ball of
+#: radius 60 px peaked at 2.40 GB with crops unbounded, 1044 MB with crops up to a whole budget of 400 MiB, 684 MB
+#: now; 600 frames of 1920 × 1080 at 1544 MB, 1048 MB and 929 MB.
+CROP_BUDGET_SHARE = 0.5
 #: Half side of a kept crop, in ball radii plus CROP_MARGIN_PX: the tracker's search window about
 #: a predicted centre (1.5 radii plus two steps plus its margin) with room for a step of a radius.
 CROP_RADII = 4.0
@@ -956,33 +962,52 @@ class _KeptFrames:
     each way), and frames before the ball was first found to nothing. A frame tracked again is the
     new background's scene (in colour where it has one) with its crop pasted in: a ball that stays near where the first pass saw
     it (what puts it in the background) is measured from the same pixels; elsewhere there is no
-    foreground. So a clip is decoded once, whatever its length, in memory bounded by the budget
-    plus the crops (about 100 × 100 px each for a 10 px ball).
+    foreground. Crops past :data:`CROP_BUDGET_SHARE` of the budget (a long clip of a large ball: frames ×
+    crop pixels) are let go, and the clip is decoded again for each pass: memory stays bounded whatever
+    the clip's length.
     """
 
     def __init__(self, budget_bytes=None):
         self.budget_bytes = FRAME_MEMORY_BUDGET_BYTES if budget_bytes is None else budget_bytes
-        self._frames = []  # whole frames, then (x0, y0, crop) or None
+        self._frames = []  # whole frames, then (x0, y0, crop) or None; None once the crops too are over budget
         self._whole = True
         self._bytes = 0
         self._centre = None  # last tracked (x, y, radius), px
 
     @property
     def whole(self):
-        """Whether the frames are kept whole (else as crops about the ball)."""
+        """Whether the frames are kept whole (else as crops about the ball, or not at all)."""
         return self._whole
+
+    @property
+    def kept(self):
+        """Whether the frames are kept, whole or as crops (else the clip must be decoded again)."""
+        return self._frames is not None
+
+    def let_go(self):
+        """Keep no frames (the clip is decoded again for each pass)."""
+        self._frames, self._whole = None, False
 
     def keep(self, frame, row):
         """Keep ``frame`` (BGR or grey uint8) that the first pass measured as ``row`` (x, y, radius, ...)."""
         if math.isfinite(row[0]):
             self._centre = row[:3]
+        if self._frames is None:
+            return
         self._frames.append((frame, self._centre))
         self._bytes += frame.nbytes
         if self._whole and self._bytes > self.budget_bytes:
-            self._whole = False
-            self._frames = [(self._crop(image, centre), centre) for image, centre in self._frames]
+            self._whole, self._bytes = False, 0
+            for index, (image, centre) in enumerate(self._frames):  # in place: each whole frame let go as it is cut
+                crop = self._crop(image, centre)
+                self._frames[index] = (crop, centre)
+                self._bytes += 0 if crop is None else crop[2].nbytes
         elif not self._whole:
-            self._frames[-1] = (self._crop(frame, self._centre), self._centre)
+            crop = self._crop(frame, self._centre)
+            self._frames[-1] = (crop, self._centre)
+            self._bytes += 0 if crop is None else crop[2].nbytes - frame.nbytes
+        if not self._whole and self._bytes > CROP_BUDGET_SHARE * self.budget_bytes:
+            self.let_go()
 
     @staticmethod
     def _crop(image, centre):
@@ -1146,7 +1171,9 @@ def track_video_and_background(path, capture_fps=None, expected_radius_px=None, 
     def track(clean, contrast):
         # crops about the first channel's ball serve that channel only, and only where that pass followed the ball
         # (crops about what a poor pass followed lose the ball in every later pass); else the file is read again
-        reuse = kept.whole or (contrast is contrasts[0] and crops_hold_the_ball)
+        reuse = kept.whole or (kept.kept and contrast is contrasts[0] and crops_hold_the_ball)
+        if not reuse:
+            kept.let_go()  # crops no pass uses: their memory serves the decoder's
         frames = kept.frames(clean) if reuse else _decoded_frames(path)
         return _run(frames, clean, expected_radius_px, contrast, hints)
 
