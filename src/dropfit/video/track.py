@@ -933,13 +933,12 @@ def track_frames(frames, times_s, expected_radius_px=None, *, background=None, s
 
 
 #: Decoded frames of one clip kept whole for tracking again (ball in the background) up to this
-#: many bytes; beyond, only crops around the ball are kept (:class:`_KeptFrames`). 256 MiB (400 before): with
-#: a 1080p clip's scene and decoder, 400 MiB of frames took a job over its 1000 MB.
-FRAME_MEMORY_BUDGET_BYTES = 256 * 2**20
+#: many bytes; beyond, only crops around the ball are kept (:class:`_KeptFrames`). (At 256 MiB the real
+#: tennis clip's 110 frames were kept as crops and tracked worse: 14 frames ok instead of both impacts.)
+FRAME_MEMORY_BUDGET_BYTES = 400 * 2**20
 #: The share of that budget the crops may take: the whole frames they replace do not give all their memory back,
 #: and a pass that decodes the clip again needs its own. `dropfit run` of 3000 frames of 640 × 480 with a ball of
-#: radius 60 px peaked at 2.40 GB with crops unbounded, 1044 MB with crops up to a whole budget of 400 MiB, 684 MB
-#: now; 600 frames of 1920 × 1080 at 1544 MB, 1048 MB and 929 MB.
+#: radius 60 px peaked at 2.40 GB with crops unbounded, 1044 MB with crops up to the whole budget, 882 MB now.
 CROP_BUDGET_SHARE = 0.5
 #: Half side of a kept crop, in ball radii plus CROP_MARGIN_PX: the tracker's search window about
 #: a predicted centre (1.5 radii plus two steps plus its margin) with room for a step of a radius.
@@ -984,10 +983,6 @@ class _KeptFrames:
         """Whether the frames are kept, whole or as crops (else the clip must be decoded again)."""
         return self._frames is not None
 
-    def let_go(self):
-        """Keep no frames (the clip is decoded again for each pass)."""
-        self._frames, self._whole = None, False
-
     def keep(self, frame, row):
         """Keep ``frame`` (BGR or grey uint8) that the first pass measured as ``row`` (x, y, radius, ...)."""
         if math.isfinite(row[0]):
@@ -1007,7 +1002,7 @@ class _KeptFrames:
             self._frames[-1] = (crop, self._centre)
             self._bytes += 0 if crop is None else crop[2].nbytes - frame.nbytes
         if not self._whole and self._bytes > CROP_BUDGET_SHARE * self.budget_bytes:
-            self.let_go()
+            self._frames = None
 
     @staticmethod
     def _crop(image, centre):
@@ -1172,8 +1167,6 @@ def track_video_and_background(path, capture_fps=None, expected_radius_px=None, 
         # crops about the first channel's ball serve that channel only, and only where that pass followed the ball
         # (crops about what a poor pass followed lose the ball in every later pass); else the file is read again
         reuse = kept.whole or (kept.kept and contrast is contrasts[0] and crops_hold_the_ball)
-        if not reuse:
-            kept.let_go()  # crops no pass uses: their memory serves the decoder's
         frames = kept.frames(clean) if reuse else _decoded_frames(path)
         return _run(frames, clean, expected_radius_px, contrast, hints)
 
