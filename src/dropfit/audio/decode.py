@@ -153,9 +153,9 @@ def _most_samples(channels):
 def _check_size(name, samples, channels, rate_hz, whole=True):
     """InputError for a sound of more than :data:`MAX_SOUND_SAMPLES` a channel or :data:`MAX_SOUND_VALUES` in all
     (``samples`` a channel: all of them if ``whole``, else those decoded before the bound stopped it)."""
-    if samples <= _most_samples(channels):
-        return
     most = _most_samples(channels)
+    if samples <= most:
+        return
     bound = "MAX_SOUND_SAMPLES" if most == MAX_SOUND_SAMPLES else "MAX_SOUND_VALUES, samples × channels"
     length = f"{samples / rate_hz:.0f} s" if rate_hz > 0 else f"{samples:,} samples"
     raise InputError(f"{name}: the sound lasts {'' if whole else 'more than '}{length} of {channels} "
@@ -188,9 +188,8 @@ def _read_with_pyav(path, name, container_clock):
                 block = block.T if frame.format.is_planar else block.reshape(-1, len(frame.layout.channels))
                 blocks.append(_full_scale(block))
                 rate = frame.sample_rate
-                decoded += block.shape[0]
-                if decoded > _most_samples(block.shape[1]):  # counted as decoded: a container's duration may lie
-                    _check_size(name, decoded, block.shape[1], rate, whole=False)
+                decoded += block.shape[0]  # counted as decoded: a container's duration may lie
+                _check_size(name, decoded, block.shape[1], rate, whole=False)
         except av.FFmpegError as error:
             if not blocks:
                 raise InputError(f"{name}: its sound track cannot be decoded ({type(error).__name__}); export it "

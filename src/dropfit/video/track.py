@@ -989,20 +989,23 @@ class _KeptFrames:
             self._centre = row[:3]
         if self._frames is None:
             return
-        self._frames.append((frame, self._centre))
-        self._bytes += frame.nbytes
-        if self._whole and self._bytes > self.budget_bytes:
-            self._whole, self._bytes = False, 0
-            for index, (image, centre) in enumerate(self._frames):  # in place: each whole frame let go as it is cut
-                crop = self._crop(image, centre)
-                self._frames[index] = (crop, centre)
-                self._bytes += 0 if crop is None else crop[2].nbytes
-        elif not self._whole:
-            crop = self._crop(frame, self._centre)
-            self._frames[-1] = (crop, self._centre)
-            self._bytes += 0 if crop is None else crop[2].nbytes - frame.nbytes
+        if self._whole:
+            self._frames.append((frame, self._centre))
+            self._bytes += frame.nbytes
+            if self._bytes > self.budget_bytes:
+                self._whole, self._bytes = False, 0
+                for index, (image, centre) in enumerate(self._frames):  # in place: each whole frame let go as cut
+                    self._frames[index] = self._cropped(image, centre)
+        else:
+            self._frames.append(self._cropped(frame, self._centre))
         if not self._whole and self._bytes > CROP_BUDGET_SHARE * self.budget_bytes:
             self._frames = None
+
+    def _cropped(self, image, centre):
+        """(the crop of ``image`` about ``centre``, ``centre``), its bytes counted."""
+        crop = self._crop(image, centre)
+        self._bytes += 0 if crop is None else crop[2].nbytes
+        return crop, centre
 
     @staticmethod
     def _crop(image, centre):
