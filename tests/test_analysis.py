@@ -618,3 +618,16 @@ def test_the_image_rows_sign_is_judged_on_the_clean_flights_first(seed):
     seen[lifted] = 1000.0 - 40.0 * np.arange(1, lifted.sum() + 1) ** 1.5
     assert vertical_sign(time, clean, seen) == -1.0
     assert vertical_sign(time, -clean, -seen) == 1.0
+
+
+@pytest.mark.parametrize("rest_fraction", [0.0, 0.5, 0.8])
+def test_the_noise_is_the_flights_when_the_ball_rests_for_most_of_the_log(rest_fraction):
+    """Flights with σ = 1 mm of noise, then the ball at rest, measured with none (no motion blur): the third
+    differences of the rest, zero, took the median with them (0.5: σ read as 0.003 mm, 0.8: 0)."""
+    from dropfit.analysis.segmentation import estimate_noise
+
+    rng = np.random.default_rng(3)
+    t = np.arange(0.0, 2.0, 0.002)
+    flights = 0.4 - 0.5 * 9.81 * (t % 0.25 - 0.125) ** 2 + rng.normal(0.0, 1e-3, t.size)
+    rest = np.zeros(int(round(t.size * rest_fraction / (1.0 - rest_fraction)))) if rest_fraction else np.zeros(0)
+    assert estimate_noise(np.concatenate([flights, rest])) == pytest.approx(1e-3, rel=0.1)

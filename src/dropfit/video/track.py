@@ -709,8 +709,20 @@ def _track_in_best_contrast(track, contrasts, first_rows, samples, indices, back
 
 
 def _sample_balls(rows, indices):
-    """(x, y, radius) of the rows at ``indices``, px, shape (n, 3)."""
-    return np.array([rows[i][:3] for i in indices], float)
+    """(x, y, radius) of the rows at ``indices``, px, shape (n, 3), NaN where the ball was not found.
+
+    A sample before the first row where the ball was found takes that row's ball, and one after the last
+    row takes the last: a ball held still before its release, or at rest after its last bounce, for half
+    of the clip is in the median and cannot be found against it there, while its ghost is found in its
+    flights (a clip of 440 frames, 45 % of them at rest, lost its drop and first impact to the ghost).
+    """
+    balls = np.array([rows[i][:3] for i in range(len(rows))], float).reshape(-1, 3)
+    found = np.flatnonzero(np.isfinite(balls).all(axis=1))
+    picked = balls[list(indices)]
+    if found.size:
+        picked[np.asarray(indices) < found[0]] = balls[found[0]]
+        picked[np.asarray(indices) > found[-1]] = balls[found[-1]]
+    return picked
 
 
 def _track_without_ball_in_background(track, samples, indices, background, rows):
