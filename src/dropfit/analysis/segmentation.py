@@ -158,13 +158,15 @@ def estimate_noise(y):
 #: An end of a recording is quiet where its heights stay within this fraction of their whole range of the
 #: value at that end (:func:`moving_span`).
 QUIET_END_FRACTION = 0.01
+#: Fewest samples the quiet ends leave for the noise (:func:`moving_span`), else none is left out.
+MIN_MOVING_SAMPLES = 10
 
 
 def moving_span(y):
     """The samples of ``y`` between its quiet ends: the longest runs at the start and at the end that stay
     within ``QUIET_END_FRACTION`` of the heights' range of the first (last) height, where they hold at least
     ``MIN_SAMPLES_PER_FLIGHT`` samples (the few before a sparsely filmed fall are its release, not a rest);
-    all of them where fewer than ten would be left.
+    all of them where fewer than ``MIN_MOVING_SAMPLES`` would be left.
 
     Parameters
     ----------
@@ -174,15 +176,16 @@ def moving_span(y):
     Returns
     -------
     slice
+        From a first to a last index, both given.
     """
-    if y.size < 10:
-        return slice(None)
+    if y.size < MIN_MOVING_SAMPLES:
+        return slice(0, y.size)
     band = QUIET_END_FRACTION * float(np.ptp(y))
     start = int(np.argmax(np.abs(y - y[0]) > band))
     tail = int(np.argmax(np.abs(y[::-1] - y[-1]) > band))
     start = start if start >= MIN_SAMPLES_PER_FLIGHT else 0
     end = y.size - (tail if tail >= MIN_SAMPLES_PER_FLIGHT else 0)
-    return slice(start, end) if end - start >= 10 else slice(None)
+    return slice(start, end) if end - start >= MIN_MOVING_SAMPLES else slice(0, y.size)
 
 
 def _side_medians(values, window):
@@ -226,7 +229,7 @@ def find_outliers(t, y, noise):
     # gravity changes the velocity between a value and the sides' medians by about two steps (in flight: a
     # ball at rest for most of a clip makes most changes zero)
     span = moving_span(y)
-    moving = np.diff(np.diff(y[span]) / np.diff(t[span]))
+    moving = change[span.start:span.stop - 2]
     trend = 2.0 * max(robust_sigma(moving), abs(float(np.median(moving))))
     left, right = _side_medians(velocity, SPIKE_WINDOW)
     from_left, from_right = velocity - left, velocity - right
